@@ -1,0 +1,1 @@
+"""Mitsuba bsdf plugins of this package, one module per XML type."""

@@ -1,0 +1,1 @@
+"""Mitsuba emitter plugins of this package, one module per XML type."""

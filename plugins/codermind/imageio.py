@@ -1,0 +1,80 @@
+"""Atomic image output: a file is either absent, the old version, or complete.
+
+Each image is written to a hidden temporary file in the destination folder,
+flushed to disk, then renamed over the destination (``os.replace`` is atomic on
+POSIX). A failure removes the temporary file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import mitsuba as mi
+import numpy as np
+
+
+@contextlib.contextmanager
+def atomic_path(dest: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
+    """Yield a temporary path next to ``dest``; on success rename it to ``dest``."""
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=suffix + ".tmp", dir=dest.parent)
+    os.close(fd)
+    tmp = Path(tmp)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual mode
+    try:
+        yield tmp
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, dest)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _bitmap(image: np.ndarray, channel_names: Sequence[str] | None) -> mi.Bitmap:
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    if image.ndim == 2:
+        image = image[:, :, None]
+    channels = image.shape[2]
+    if channel_names is None or len(channel_names) != channels:
+        channel_names = {1: ["Y"], 3: ["R", "G", "B"], 4: ["R", "G", "B", "A"]}.get(
+            channels, [f"ch{i}" for i in range(channels)])
+    fmt = {("Y",): mi.Bitmap.PixelFormat.Y, ("R", "G", "B"): mi.Bitmap.PixelFormat.RGB,
+           ("R", "G", "B", "A"): mi.Bitmap.PixelFormat.RGBA}.get(tuple(channel_names),
+                                                                 mi.Bitmap.PixelFormat.MultiChannel)
+    return mi.Bitmap(image, fmt, list(channel_names))
+
+
+def write_exr(path: str | os.PathLike, image: np.ndarray,
+              channel_names: Sequence[str] | None = None) -> None:
+    """Write a float32 linear EXR atomically (lossless PIZ compression)."""
+    bmp = _bitmap(image, channel_names)
+    with atomic_path(path) as tmp:
+        bmp.write(str(tmp), mi.Bitmap.FileFormat.OpenEXR)
+
+
+def write_png_srgb(path: str | os.PathLike, rgb: np.ndarray) -> None:
+    """Write linear RGB as an 8-bit sRGB PNG atomically (clamped, rounded)."""
+    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float32)[:, :, :3], nan=0.0, posinf=1.0)
+    bmp = mi.Bitmap(np.ascontiguousarray(rgb), mi.Bitmap.PixelFormat.RGB)
+    bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
+    write_png_bytes(path, np.array(bmp, copy=False))
+
+
+def write_png_bytes(path: str | os.PathLike, pixels: np.ndarray) -> None:
+    """Write an 8-bit RGB (H, W, 3) array as PNG atomically, as given."""
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    bmp = mi.Bitmap(pixels, mi.Bitmap.PixelFormat.RGB)
+    with atomic_path(path) as tmp:
+        bmp.write(str(tmp), mi.Bitmap.FileFormat.PNG)
+
+
+def read_exr(path: str | os.PathLike) -> np.ndarray:
+    """Read an EXR as a float32 (H, W, C) array."""
+    return np.array(mi.Bitmap(str(path)), copy=True, dtype=np.float32)

@@ -1,0 +1,122 @@
+"""Rendering in passes: the sample budget is split into passes with distinct seeds,
+accumulated as a sample-weighted mean, with progress, ETA and clean interruption.
+
+The split depends only on the sample count and the image size (never on timing), so
+a fixed seed gives the same image on every run.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, TextIO
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+#: Samples in flight per pass (pixels x spp): bounds memory and sets progress granularity.
+LANE_BUDGET = 1 << 23
+
+
+def pass_plan(spp: int, pixels: int, pass_spp: int | None = None) -> list[int]:
+    """Samples per pixel of each pass; they add up to ``spp``."""
+    if spp < 1:
+        raise ValueError("spp must be >= 1")
+    per = pass_spp or max(1, LANE_BUDGET // max(pixels, 1))
+    per = min(per, spp)
+    full, rest = divmod(spp, per)
+    return [per] * full + ([rest] if rest else [])
+
+
+def pass_seed(seed: int, index: int) -> int:
+    """A 32-bit seed for pass ``index`` of a render with base ``seed`` (splitmix-style mix)."""
+    z = (seed * 0x9E3779B97F4A7C15 + (index + 1) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
+    return (z ^ (z >> 31)) & 0xFFFFFFFF
+
+
+class Progress:
+    """A progress bar with ETA on a terminal; one line per pass otherwise."""
+
+    def __init__(self, total_spp: int, stream: TextIO | None = None, label: str = "render"):
+        self.total = total_spp
+        self.stream = stream if stream is not None else sys.stderr
+        self.label = label
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.start = time.perf_counter()
+
+    def update(self, done_spp: int, passes_done: int, passes_total: int) -> None:
+        elapsed = time.perf_counter() - self.start
+        frac = done_spp / self.total
+        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
+        text = (f"{self.label} [{bar}] {done_spp}/{self.total} spp, pass {passes_done}/{passes_total}, "
+                f"{elapsed:.1f} s, ETA {eta:.1f} s")
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if done_spp >= self.total else ""))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def finish_early(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray                 #: float32 (H, W, C) sample mean
+    channel_names: list[str]
+    spp: int                          #: samples per pixel actually accumulated
+    spp_requested: int
+    seconds: float
+    pass_times: list[float] = field(default_factory=list)
+
+    @property
+    def interrupted(self) -> bool:
+        return self.spp < self.spp_requested
+
+
+def scene_spp(scene: mi.Scene, sensor: int = 0) -> int:
+    return int(scene.sensors()[sensor].sampler().sample_count())
+
+
+def render_passes(scene: mi.Scene, spp: int | None = None, seed: int = 0, sensor: int = 0,
+                  pass_spp: int | None = None, progress: Progress | None = None,
+                  should_stop: Callable[[], bool] = lambda: False) -> RenderResult:
+    """Render ``spp`` samples per pixel in passes and return their mean.
+
+    ``should_stop`` is polled after every pass; when it returns True the passes
+    finished so far are returned (``result.interrupted`` is then True).
+    """
+    spp = spp or scene_spp(scene, sensor)
+    film = scene.sensors()[sensor].film()
+    size = film.crop_size()
+    plan = pass_plan(spp, int(size[0]) * int(size[1]), pass_spp)
+    acc = None
+    done = 0
+    names: list[str] = []
+    t0 = time.perf_counter()
+    times = []
+    for i, n in enumerate(plan):
+        if should_stop():
+            break
+        t = time.perf_counter()
+        img = mi.render(scene, sensor=sensor, spp=n, seed=pass_seed(seed, i))
+        arr = np.array(img, dtype=np.float64)
+        dr.sync_thread()
+        times.append(time.perf_counter() - t)
+        acc = arr * n if acc is None else acc + arr * n
+        done += n
+        if not names:
+            names = [f.name for f in film.bitmap().struct_()]
+        if progress:
+            progress.update(done, i + 1, len(plan))
+    if progress and done < spp:
+        progress.finish_early()
+    image = (acc / done).astype(np.float32) if done else np.zeros((0, 0, 0), np.float32)
+    return RenderResult(image, names, done, spp, time.perf_counter() - t0, times)

@@ -1,0 +1,1 @@
+"""Mitsuba sensor plugins of this package, one module per XML type."""

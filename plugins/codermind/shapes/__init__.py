@@ -1,0 +1,1 @@
+"""Mitsuba shape plugins of this package, one module per XML type."""

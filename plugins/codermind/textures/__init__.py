@@ -1,0 +1,1 @@
+"""Mitsuba texture plugins of this package, one module per XML type."""
