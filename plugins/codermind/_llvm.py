@@ -20,7 +20,7 @@ FIX = ("install a newer LLVM (Debian 12: `apt-get install libllvm19`) or set "
 
 
 def _major(path: str) -> int | None:
-    m = re.search(r"libLLVM[-.]?(\d+)", os.path.basename(path))
+    m = re.search(r"libLLVM[-.]?(?:so\.)?(\d+)", os.path.basename(path))
     return int(m.group(1)) if m else None
 
 

@@ -23,6 +23,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                      "debugging, cuda_ad_rgb with a GPU)")
     p.add_argument("--seed", type=int, default=0, help="base random seed (default 0)")
     p.add_argument("--pass-spp", type=int, help="samples per pixel per pass (default: from image size)")
+    p.add_argument("--deterministic", action="store_true",
+                   help="bit-identical output for a given seed: runs Dr.Jit on one thread, since "
+                        "parallel film accumulation adds samples in a varying order")
 
 
 def output_base(scene: Path, output: str | None) -> Path:
@@ -51,6 +54,12 @@ def run(args: argparse.Namespace) -> int:
     from ..imageio import write_exr, write_png_srgb
 
     scene = load_scene(scene_path)
+    import drjit as dr
+    threads = dr.thread_count()
+    if args.deterministic:
+        # Only around rendering: Mitsuba's scene loading and EXR writing wait on tasks of
+        # the same pool and deadlock when it has a single thread.
+        dr.set_thread_count(1)
     spp = args.spp or scene_spp(scene)
     base = output_base(scene_path, args.output)
 
@@ -70,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
                                should_stop=lambda: stop["requested"])
     finally:
         signal.signal(signal.SIGINT, previous)
+        dr.set_thread_count(threads)
 
     if result.spp == 0:
         print("codermind: interrupted before the first pass finished; nothing written",

@@ -74,14 +74,14 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_direction(self, it: mi.Interaction3f, sample: mi.Point2f,
                          active: mi.Bool = True) -> tuple[mi.DirectionSample3f, mi.Spectrum]:
-        ds = dr.zeros(mi.DirectionSample3f)
+        ds = mi.DirectionSample3f()  # dr.zeros() cannot build it in scalar variants
         ds.p = mi.Point3f(self.position)
         ds.n = mi.Normal3f(0.0)
         ds.uv = mi.Point2f(0.0)
         ds.time = it.time
         ds.pdf = mi.Float(1.0)
         ds.delta = mi.Bool(True)
-        ds.emitter = mi.EmitterPtr(self)
+        ds.emitter = mi.EmitterPtr(self) if dr.is_jit_v(mi.Float) else self
         ds.d = ds.p - it.p
         dist2 = dr.squared_norm(ds.d)
         inv_dist = dr.rsqrt(dist2)
@@ -105,7 +105,7 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
-        ps = dr.zeros(mi.PositionSample3f)
+        ps = mi.PositionSample3f()
         ps.p = mi.Point3f(self.position)
         ps.time = time
         ps.delta = mi.Bool(True)
