@@ -40,7 +40,6 @@ def chi2_res(exponent, deg):
 @pytest.mark.parametrize("exponent", EXPONENTS)
 @pytest.mark.parametrize("deg", ANGLES)
 def test_chi2_sampling_matches_pdf(llvm, exponent, deg):
-    mi = llvm
     from mitsuba.chi2 import BSDFAdapter, ChiSquareTest, SphericalDomain
     sample, pdf = BSDFAdapter("blinnphong", bsdf_dict(exponent), wi=incident(deg))
     chi2 = ChiSquareTest(domain=SphericalDomain(), sample_func=sample, pdf_func=pdf,
@@ -155,7 +154,6 @@ def test_renders_with_path_tracer(llvm):
     """Global illumination with the built-in path integrator: a Cornell-like box with a
     blinnphong sphere and walls gives a finite image, brighter than direct lighting only."""
     mi = llvm
-    import drjit as dr
 
     def scene(max_depth):
         wall = {"type": "blinnphong", "diffuse_reflectance": 0.6, "specular_reflectance": 0.3,
