@@ -101,7 +101,7 @@ class NoiseBumpBSDF(mi.BSDF):
         """The perturbed interaction (frame and wi) for the nested BSDF."""
         p = si.p if self.identity else self.to_local @ si.p
         x, y, z = p.x * self.frequency, p.y * self.frequency, p.z * self.frequency
-        bump = mi.Vector3f(_noise.noise(x, y, z), _noise.noise(y, z, x), _noise.noise(z, x, y))
+        bump = _noise.rotated_noise(x, y, z)
         frame = si.sh_frame
         wi = frame.to_world(si.wi)
         b = self.bumplevel

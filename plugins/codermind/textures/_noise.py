@@ -91,27 +91,40 @@ def _grad(code, x: mi.Float, y: mi.Float, z: mi.Float) -> mi.Float:
     return dr.fma(_coef(code, 0), x, dr.fma(_coef(code, 2), y, _coef(code, 4) * z))
 
 
-def noise(x: mi.Float, y: mi.Float, z: mi.Float) -> mi.Float:
-    """Perlin's improved noise at (x, y, z), in [-1, 1]."""
-    fx, fy, fz = dr.floor(x), dr.floor(y), dr.floor(z)
-    ix = mi.UInt32(mi.Int32(fx) & 255)
-    iy = mi.UInt32(mi.Int32(fy) & 255)
-    iz = mi.UInt32(mi.Int32(fz) & 255)
-    x, y, z = x - fx, y - fy, z - fz
-    x1, y1, z1 = x - 1.0, y - 1.0, z - 1.0
+def _cell(x: mi.Float):
+    """Lattice index (mod 256), offsets to the two lattice planes, and the fade weight."""
+    f = dr.floor(x)
+    t = x - f
+    return mi.UInt32(mi.Int32(f) & 255), t, t - 1.0, _fade(t)
 
+
+def _combine(cx, cy, cz) -> mi.Float:
+    """Perlin's noise from the three axes' cells (see :func:`_cell`)."""
+    ix, x, x1, u = cx
+    iy, y, y1, v = cy
+    iz, z, z1, w = cz
     q = _gather(_PAIRS, (ix << 8) | iy)
     g_aa = _gather(_GRADS, (q & 255) + iz)
     g_ab = _gather(_GRADS, ((q >> 8) & 255) + iz)
     g_ba = _gather(_GRADS, ((q >> 16) & 255) + iz)
     g_bb = _gather(_GRADS, (q >> 24) + iz)
-
-    u, v, w = _fade(x), _fade(y), _fade(z)
     lo = _lerp(v, _lerp(u, _grad(g_aa, x, y, z), _grad(g_ba, x1, y, z)),
                _lerp(u, _grad(g_ab, x, y1, z), _grad(g_bb, x1, y1, z)))
     hi = _lerp(v, _lerp(u, _grad(g_aa >> 6, x, y, z1), _grad(g_ba >> 6, x1, y, z1)),
                _lerp(u, _grad(g_ab >> 6, x, y1, z1), _grad(g_bb >> 6, x1, y1, z1)))
     return _lerp(w, lo, hi)
+
+
+def noise(x: mi.Float, y: mi.Float, z: mi.Float) -> mi.Float:
+    """Perlin's improved noise at (x, y, z), in [-1, 1]."""
+    return _combine(_cell(x), _cell(y), _cell(z))
+
+
+def rotated_noise(x: mi.Float, y: mi.Float, z: mi.Float) -> mi.Vector3f:
+    """(noise(x, y, z), noise(y, z, x), noise(z, x, y)), the tutorial's bump vector; the
+    three share their lattice cells and fade weights."""
+    cx, cy, cz = _cell(x), _cell(y), _cell(z)
+    return mi.Vector3f(_combine(cx, cy, cz), _combine(cy, cz, cx), _combine(cz, cx, cy))
 
 
 def noise3(p: mi.Point3f) -> mi.Float:
