@@ -11,9 +11,10 @@ Groups:
                                     direct light only
   turbulence / marble, 1, 3, 9 octaves vs checkerboard, and their cost per octave
   noise core before/after: Perlin's reference structure (14 table look-ups, branchy
-  gradient) vs the plugin's (5 look-ups of pre-combined tables, arithmetic gradient)
+  gradient; also with an 8-bit table), 5 look-ups with the branchy gradient, and the
+  plugin's (5 look-ups of pre-combined tables, arithmetic gradient); all bit-identical
 
-    python benchmarks/bench_materials.py [--rounds 7] [--size 384] [--spp 8]
+    python benchmarks/bench_materials.py [--rounds 7] [--size 384] [--spp 8] [--threads N]
 """
 
 from __future__ import annotations
@@ -28,18 +29,25 @@ import numpy as np
 
 
 # -- the "before" noise: Perlin's reference, look-up for look-up ------------------------------
-def reference_noise(x, y, z):
+def branchy_grad(hash_, x, y, z):
+    """Perlin's grad() with its branches as selects."""
+    h = hash_ & 15
+    u = dr.select(h < 8, x, y)
+    v = dr.select(h < 4, y, dr.select((h == 12) | (h == 14), x, z))
+    return dr.select((h & 1) == 0, u, -u) + dr.select((h & 2) == 0, v, -v)
+
+
+def reference_noise(x, y, z, table_type=None):
+    """Perlin's reference structure: 14 look-ups in the 512-entry table (UInt32, or the
+    8-bit type given)."""
     from codermind.textures import _noise
-    p = mi.UInt32(np.array(_noise.PERMUTATION * 2, dtype=np.uint32))
+    table_type = table_type or mi.UInt32
+    p = table_type(np.array(_noise.PERMUTATION * 2, dtype=np.uint32))
 
     def perm(i):
-        return dr.gather(mi.UInt32, p, i)
+        return mi.UInt32(dr.gather(table_type, p, i))
 
-    def grad(hash_, x, y, z):
-        h = hash_ & 15
-        u = dr.select(h < 8, x, y)
-        v = dr.select(h < 4, y, dr.select((h == 12) | (h == 14), x, z))
-        return dr.select((h & 1) == 0, u, -u) + dr.select((h & 2) == 0, v, -v)
+    grad = branchy_grad
 
     fx, fy, fz = dr.floor(x), dr.floor(y), dr.floor(z)
     X, Y, Z = (mi.UInt32(mi.Int32(f) & 255) for f in (fx, fy, fz))
@@ -55,6 +63,23 @@ def reference_noise(x, y, z):
                 lerp(v, lerp(u, grad(perm(AA + 1), x, y, z - 1), grad(perm(BA + 1), x - 1, y, z - 1)),
                      lerp(u, grad(perm(AB + 1), x, y - 1, z - 1),
                           grad(perm(BB + 1), x - 1, y - 1, z - 1))))
+
+
+def packed_noise_branchy(x, y, z):
+    """The plugin's 5 look-ups, but with Perlin's branchy gradient on 4-bit hashes."""
+    from codermind.textures import _noise
+    p = np.array(_noise.PERMUTATION * 2, dtype=np.uint32)
+    h = np.arange(511)
+    nibbles = mi.UInt32(np.append((p[h] & 15) | ((p[h + 1] & 15) << 4), 0).astype(np.uint32))
+    (ix, x, x1, u), (iy, y, y1, v), (iz, z, z1, w) = _noise._cell(x), _noise._cell(y), _noise._cell(z)
+    q = dr.gather(mi.UInt32, _noise._PAIRS, (ix << 8) | iy)
+    g = [dr.gather(mi.UInt32, nibbles, ((q >> s) & 255) + iz) for s in (0, 8, 16, 24)]
+    lerp, grad = _noise._lerp, branchy_grad
+    lo = lerp(v, lerp(u, grad(g[0], x, y, z), grad(g[2], x1, y, z)),
+              lerp(u, grad(g[1], x, y1, z), grad(g[3], x1, y1, z)))
+    hi = lerp(v, lerp(u, grad(g[0] >> 4, x, y, z1), grad(g[2] >> 4, x1, y, z1)),
+              lerp(u, grad(g[1] >> 4, x, y1, z1), grad(g[3] >> 4, x1, y1, z1)))
+    return lerp(w, lo, hi)
 
 
 def register_reference_perlin():
@@ -139,29 +164,45 @@ def run_group(title, configs, rounds, baseline):
     return med
 
 
+def hashed_points(n, scale):
+    """n pseudo-random points in [-scale, scale]^3 computed inside the kernel (no memory
+    traffic: with stored inputs the benchmark measures memory bandwidth, not the noise)."""
+    i = dr.arange(mi.UInt32, n)
+
+    def coordinate(k):
+        v = i * 2654435761 + k * 40503
+        v = (v ^ (v >> 15)) * 2246822519
+        v = v ^ (v >> 13)
+        return mi.Float(v & 0xFFFFFF) * (2.0 * scale / 16777216.0) - scale
+
+    return coordinate(1), coordinate(2), coordinate(3)
+
+
 def bench_noise_core(rounds, n=4_000_000):
-    """The noise function alone on n points (no rendering)."""
+    """The noise function alone on n points (no rendering), summed in the kernel."""
     from codermind.textures import _noise
-    rng = np.random.default_rng(0)
-    xs = [mi.Float(rng.uniform(0, 60, n).astype(np.float32)) for _ in range(3)]
-    dr.eval(xs)
     fns = {"reference structure (14 look-ups)": reference_noise,
+           "  same, 8-bit table": lambda x, y, z: reference_noise(x, y, z, dr.llvm.ad.UInt8),
+           "5 look-ups, branchy grad": packed_noise_branchy,
            "plugin (5 look-ups, arithmetic grad)": _noise.noise}
-    for f in fns.values():
-        dr.eval(f(*xs))
+    xs = hashed_points(100_000, 60.0)
+    ref = reference_noise(*xs).numpy()
+    for name, f in fns.items():
+        assert np.abs(f(*xs).numpy() - ref).max() == 0, name      # bit-identical
+        dr.eval(dr.sum(f(*hashed_points(n, 60.0))))               # compile
     times = {k: [] for k in fns}
     for _ in range(rounds):
         for k, f in fns.items():
             dr.sync_thread()
             t0 = time.perf_counter()
-            dr.eval(f(*xs))
+            dr.eval(dr.sum(f(*hashed_points(n, 60.0))))
             dr.sync_thread()
             times[k].append(time.perf_counter() - t0)
     med = {k: statistics.median(t) for k, t in times.items()}
     base = med["reference structure (14 look-ups)"]
-    print(f"\nnoise core, {n / 1e6:.0f}M points (medians of {rounds})")
+    print(f"\nnoise core, {n / 1e6:.0f}M points in [-60, 60]^3 (medians of {rounds})")
     for k, t in med.items():
-        print(f"  {k:<40} {t * 1e3:8.2f} ms  {t / base:6.3f}x  {n / t / 1e6:7.1f} Mpts/s")
+        print(f"  {k:<40} {t * 1e3:8.2f} ms  {t / base:6.3f}x  {n / t / 1e6:7.1f} Mpoints/s")
 
 
 def main() -> None:
@@ -169,13 +210,18 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--size", type=int, default=384)
     ap.add_argument("--spp", type=int, default=8)
+    ap.add_argument("--threads", type=int, help="Dr.Jit worker threads (default: all cores); "
+                    "1 is steadier on a machine shared with other work")
     args = ap.parse_args()
 
     mi.set_variant("llvm_ad_rgb")
+    if args.threads:
+        dr.set_thread_count(args.threads)
     import codermind  # noqa: F401
     register_reference_perlin()
     s, spp, R = args.size, args.spp, args.rounds
-    print(f"llvm_ad_rgb, {s}x{s}, {spp} spp, {R} interleaved rounds; times are medians")
+    print(f"llvm_ad_rgb, {dr.thread_count()} threads, {s}x{s}, {spp} spp, {R} interleaved "
+          f"rounds; times are medians")
 
     run_group("blinnphong vs roughplastic (path, max_depth 5)", {
         "roughplastic (built-in)": scene({"type": "roughplastic", "alpha": 0.1,

@@ -39,8 +39,9 @@ class SolidTexture(mi.Texture):
             self.to_local = mi.Transform4f(mi.ScalarMatrix4f(to_world.inverse().matrix))
         self.mixes_colors = mixes_colors
         if mixes_colors:
-            self.color0 = props.get_texture("color0", 1.0)
-            self.color1 = props.get_texture("color1", 0.0)
+            # Unbounded: the tutorial's colours are plain multipliers and may exceed 1.
+            self.color0 = props.get_unbounded_texture("color0", 1.0)
+            self.color1 = props.get_unbounded_texture("color1", 0.0)
 
     # -- to be provided by subclasses ---------------------------------------------------
     def weight(self, p: mi.Point3f) -> mi.Float:

@@ -22,7 +22,8 @@ class MarbleTexture(SolidTexture):
 
      * - color1
        - |spectrum| or |texture|
-       - Colour weighted by :math:`1 - m`: the tutorial's ``Diffuse2`` (Default: 0)
+       - Colour weighted by :math:`1 - m`: the tutorial's ``Diffuse2`` (Default: 0). Both
+         colours may exceed 1 (they are multipliers, as in the tutorial)
 
      * - frequency
        - |float|
