@@ -8,6 +8,8 @@ import math
 
 import mitsuba as mi
 
+from . import _noise
+
 
 
 def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
@@ -94,3 +96,19 @@ class SolidTexture(mi.Texture):
                   if self.mixes_colors else "")
         placement = "" if self.identity else f",\n  to_world = {self.to_world.matrix}"
         return f"{type(self).__name__}[\n  {self.describe()}{placement}{colors}\n]"
+
+
+class TurbulenceBase(SolidTexture):
+    """Colours, ``frequency`` (default 0.05) and ``octaves`` (default 9) of the tutorial's
+    turbulence, shared by ``turbulence`` and ``marble``."""
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props, mixes_colors=True)
+        self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
+        self.octaves = octave_count(props, self.plugin)
+
+    def turbulence(self, p: mi.Point3f) -> mi.Float:
+        return _noise.turbulence(p, self.frequency, self.octaves)
+
+    def describe(self) -> str:
+        return f"frequency = {self.frequency},\n  octaves = {self.octaves}"

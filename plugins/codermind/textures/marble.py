@@ -3,11 +3,10 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from . import _noise
-from ._solid import SolidTexture, octave_count, positive_float
+from ._solid import TurbulenceBase, positive_float
 
 
-class MarbleTexture(SolidTexture):
+class MarbleTexture(TurbulenceBase):
     r"""
     .. _texture-marble:
 
@@ -69,21 +68,18 @@ class MarbleTexture(SolidTexture):
     plugin = "marble"
 
     def __init__(self, props: mi.Properties):
-        super().__init__(props, mixes_colors=True)
-        self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
-        self.octaves = octave_count(props, self.plugin)
+        super().__init__(props)
         self.stripe_frequency = positive_float(props, self.plugin, "stripe_frequency", 0.05)
 
     def weight(self, p: mi.Point3f) -> mi.Float:
-        t = _noise.turbulence(p, self.frequency, self.octaves)
+        t = self.turbulence(p)
         return dr.fma(0.5, dr.sin(dr.fma(p.x + p.y, self.stripe_frequency, t)), 0.5)
 
     def mean_weight(self) -> float:
         return 0.5
 
     def describe(self) -> str:
-        return (f"frequency = {self.frequency},\n  octaves = {self.octaves},\n"
-                f"  stripe_frequency = {self.stripe_frequency}")
+        return f"{super().describe()},\n  stripe_frequency = {self.stripe_frequency}"
 
 
 mi.register_texture("marble", lambda props, cls=MarbleTexture: cls(props))

@@ -3,10 +3,10 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import mitsuba as mi
 
 from . import _noise
-from ._solid import SolidTexture, octave_count, positive_float
+from ._solid import TurbulenceBase
 
 
-class TurbulenceTexture(SolidTexture):
+class TurbulenceTexture(TurbulenceBase):
     r"""
     .. _texture-turbulence:
 
@@ -66,19 +66,11 @@ class TurbulenceTexture(SolidTexture):
 
     plugin = "turbulence"
 
-    def __init__(self, props: mi.Properties):
-        super().__init__(props, mixes_colors=True)
-        self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
-        self.octaves = octave_count(props, self.plugin)
-
     def weight(self, p: mi.Point3f) -> mi.Float:
-        return _noise.turbulence(p, self.frequency, self.octaves)
+        return self.turbulence(p)
 
     def mean_weight(self) -> float:
         return _noise.MEAN_ABS_NOISE * sum(1.0 / k for k in range(1, self.octaves + 1))
-
-    def describe(self) -> str:
-        return f"frequency = {self.frequency},\n  octaves = {self.octaves}"
 
 
 mi.register_texture("turbulence", lambda props, cls=TurbulenceTexture: cls(props))
