@@ -360,3 +360,19 @@ def test_scalar_variant(scalar):
     np.testing.assert_allclose(np.array(value), (1 - 0.5 * r - 0.5 * (1 - r)) * light, rtol=1e-5)
     bs, weight = bsdf.sample(ctx, si, 0.01, mi.Point2f(0.5, 0.5))
     assert bs.sampled_component == 2 and np.allclose(np.array(weight), 0.5)
+
+
+def test_page1_is_page2(llvm):
+    """Page 1 has no Specular key; with specular 0 its material is page 2's."""
+    mi = llvm
+    import drjit as dr
+    ctx, k = mi.BSDFContext(), 1000
+    rng = np.random.default_rng(6)
+    wi = mi.warp.square_to_uniform_hemisphere(mi.Point2f(rng.random((2, k))))
+    wo = mi.warp.square_to_uniform_hemisphere(mi.Point2f(rng.random((2, k))))
+    si = _si(mi, dr, wi, k)
+    one, two = (mi.load_dict(material(page=p, specular=0.0, reflection=0.4)) for p in (1, 2))
+    np.testing.assert_array_equal(one.eval(ctx, si, wo).numpy(), two.eval(ctx, si, wo).numpy())
+    (bs1, w1), (bs2, w2) = (b.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5)) for b in (one, two))
+    np.testing.assert_array_equal(bs1.wo.numpy(), bs2.wo.numpy())
+    np.testing.assert_array_equal(w1.numpy(), w2.numpy())
