@@ -198,8 +198,7 @@ def test_scalar_variant(scalar):
 def test_scalar_render_of_all_material_plugins(scalar):
     """A tiny render in scalar_rgb with every plugin of this part nested as a tutorial
     scene would: noisebump(tutorial(turbulence)), tutorial(marble), blinnphong(perlin).
-    (Built-in point light: tutorialpoint's sample_direction uses dr.zeros on a struct,
-    which scalar variants do not support.)"""
+    (A built-in point light, so that this test depends on no other part.)"""
     mi = scalar
     T = mi.ScalarTransform4f
     scene = mi.load_dict({
