@@ -43,9 +43,14 @@ _UNREFERENCED = re.compile(
     r'propert(?:y|ies) in (?P<kind>\w+) plugin of type "(?P<type>[^"]+)":\s*-\s*\w+ "(?P<name>[^"]+)"')
 
 
+# A Python traceback that Mitsuba embeds when a Python plugin's constructor raises: keep
+# only the exception line that follows it (e.g. "ValueError: tutorial: 'power' ...").
+_TRACEBACK = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t]+.*\n)*")
+
+
 def one_line(message: str) -> str:
     """Condense a (possibly multi-line, Mitsuba-prefixed) error message into one line."""
-    message = str(message).strip()
+    message = _TRACEBACK.sub("", str(message).strip())
     m = _UNREFERENCED.search(message)
     if m:
         return (f'{m["file"]}:{m["line"]}:{m["col"]}: unknown parameter "{m["name"]}" '

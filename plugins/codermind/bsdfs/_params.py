@@ -1,0 +1,49 @@
+"""Parameter reading and checking shared by this package's BSDFs. Every check raises a
+ValueError whose message starts with ``<plugin>: '<parameter>'``."""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+
+
+def read_float(props: mi.Properties, plugin: str, name: str, default: float,
+               lo: float | None = None, hi: float | None = None) -> float:
+    """A finite float in [lo, hi] (either bound optional)."""
+    value = props.get(name, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{plugin}: '{name}' must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or (lo is not None and value < lo) or \
+            (hi is not None and value > hi):
+        bounds = (f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}") \
+            if lo is not None else f"<= {hi:g}"
+        raise ValueError(f"{plugin}: '{name}' must be finite and {bounds}, got {value:g}")
+    return value
+
+
+def uniform_rgb(texture: mi.Texture) -> list[float] | None:
+    """The RGB value of a texture that does not vary over space, else None."""
+    if texture.is_spatially_varying():
+        return None
+    si = mi.SurfaceInteraction3f() if not dr.is_jit_v(mi.Float) else \
+        dr.zeros(mi.SurfaceInteraction3f)
+    try:
+        value = texture.eval_3(si)
+    except Exception:  # a texture without eval_3: nothing to check
+        return None
+    return [float(dr.slice(c)) if dr.is_jit_v(mi.Float) else float(c) for c in value]
+
+
+def read_texture(props: mi.Properties, plugin: str, name: str, default: float,
+                 unbounded: bool = False) -> mi.Texture:
+    """A texture parameter; a uniform one must be >= 0 in every channel. ``unbounded``
+    accepts RGB values above 1 (Mitsuba rejects them for reflectances otherwise)."""
+    texture = props.get_unbounded_texture(name, default) if unbounded else \
+        props.get_texture(name, default)
+    value = uniform_rgb(texture)
+    if value is not None and min(value) < 0:
+        raise ValueError(f"{plugin}: '{name}' must be >= 0 in every channel, got {value}")
+    return texture

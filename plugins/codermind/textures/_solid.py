@@ -1,0 +1,114 @@
+"""Common part of the solid (3D) noise textures ``perlin``, ``turbulence`` and ``marble``:
+the lookup position (world position through an optional ``to_world``), parameter checks,
+and the two-colour mix ``w * color0 + (1 - w) * color1`` of the tutorial (unclamped)."""
+
+from __future__ import annotations
+
+import math
+
+import mitsuba as mi
+
+from . import _noise
+
+
+
+def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
+    value = float(props.get(name, default))
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0, got {value:g}")
+    return value
+
+
+def octave_count(props: mi.Properties, plugin: str, default: int = 9) -> int:
+    value = props.get("octaves", default)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 64:
+        raise ValueError(f"{plugin}: 'octaves' must be an integer in [1, 64], got {value!r}")
+    return value
+
+
+class SolidTexture(mi.Texture):
+    """Base of the noise textures: ``weight(p)`` is the scalar field at the (to_world^-1
+    transformed) world position; subclasses with colours mix them with that weight."""
+
+    plugin = "solid"
+
+    def __init__(self, props: mi.Properties, mixes_colors: bool):
+        super().__init__(props)
+        self.identity = "to_world" not in props
+        if not self.identity:
+            to_world = props.get("to_world")            # a double-precision transform
+            self.to_world = mi.ScalarTransform4f(mi.ScalarMatrix4f(to_world.matrix))
+            self.to_local = mi.Transform4f(mi.ScalarMatrix4f(to_world.inverse().matrix))
+        self.mixes_colors = mixes_colors
+        if mixes_colors:
+            # Unbounded: the tutorial's colours are plain multipliers and may exceed 1.
+            self.color0 = props.get_unbounded_texture("color0", 1.0)
+            self.color1 = props.get_unbounded_texture("color1", 0.0)
+
+    # -- to be provided by subclasses ---------------------------------------------------
+    def weight(self, p: mi.Point3f) -> mi.Float:
+        raise NotImplementedError
+
+    def mean_weight(self) -> float:
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        raise NotImplementedError
+
+    # -- mi.Texture interface -----------------------------------------------------------
+    def position(self, si: mi.SurfaceInteraction3f) -> mi.Point3f:
+        return si.p if self.identity else self.to_local @ si.p
+
+    def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.UnpolarizedSpectrum:
+        w = self.weight(self.position(si))
+        if not self.mixes_colors:
+            return mi.UnpolarizedSpectrum(w)
+        return w * self.color0.eval(si, active) + (1.0 - w) * self.color1.eval(si, active)
+
+    def eval_1(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Float:
+        w = self.weight(self.position(si))
+        if not self.mixes_colors:
+            return w
+        return w * self.color0.eval_1(si, active) + (1.0 - w) * self.color1.eval_1(si, active)
+
+    def eval_3(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Color3f:
+        w = self.weight(self.position(si))
+        if not self.mixes_colors:
+            return mi.Color3f(w)
+        return w * self.color0.eval_3(si, active) + (1.0 - w) * self.color1.eval_3(si, active)
+
+    def mean(self) -> float:
+        w = self.mean_weight()
+        if not self.mixes_colors:
+            return w
+        return w * self.color0.mean() + (1.0 - w) * self.color1.mean()
+
+    def is_spatially_varying(self) -> bool:
+        return True
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        if self.mixes_colors:
+            callback.put("color0", self.color0, mi.ParamFlags.Differentiable)
+            callback.put("color1", self.color1, mi.ParamFlags.Differentiable)
+
+    def to_string(self) -> str:
+        colors = (f",\n  color0 = {self.color0},\n  color1 = {self.color1}"
+                  if self.mixes_colors else "")
+        placement = "" if self.identity else f",\n  to_world = {self.to_world.matrix}"
+        return f"{type(self).__name__}[\n  {self.describe()}{placement}{colors}\n]"
+
+
+class TurbulenceBase(SolidTexture):
+    """Colours, ``frequency`` (default 0.05) and ``octaves`` (default 9) of the tutorial's
+    turbulence, shared by ``turbulence`` and ``marble``."""
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props, mixes_colors=True)
+        self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
+        self.octaves = octave_count(props, self.plugin)
+
+    def turbulence(self, p: mi.Point3f) -> mi.Float:
+        return _noise.turbulence(p, self.frequency, self.octaves)
+
+    def describe(self) -> str:
+        return f"frequency = {self.frequency},\n  octaves = {self.octaves}"

@@ -1,0 +1,60 @@
+from __future__ import annotations  # Delayed parsing of type annotations
+
+import mitsuba as mi
+
+from . import _noise
+from ._solid import SolidTexture, positive_float
+
+
+class PerlinTexture(SolidTexture):
+    r"""
+    .. _texture-perlin:
+
+    Perlin noise (:monosp:`perlin`)
+    -------------------------------
+
+    .. pluginparameters::
+
+     * - frequency
+       - |float|
+       - Noise frequency :math:`f` in 1/world units (Default: 1)
+
+     * - to_world
+       - |transform|
+       - Placement of the noise in the scene: it is evaluated at
+         :math:`\mathbf{p} = \mathtt{to\_world}^{-1}\,\mathbf{x}` for the world position
+         :math:`\mathbf{x}` of the shading point (Default: identity)
+
+    A solid (3D) texture: the raw value of Ken Perlin's improved noise (2002, with his
+    permutation table), :math:`\mathrm{noise}(f\,\mathbf{p})`, as a grey value in about
+    :math:`[-1, 1]`, negative values included, evaluated in single precision (see the
+    package README for where float32 stops being accurate). The texture ignores UV
+    coordinates. :monosp:`mean()` is 0, the average of the noise over space.
+
+    .. tabs::
+
+        .. code-tab:: xml
+
+            <texture type="perlin" name="reflectance">
+                <float name="frequency" value="0.1"/>
+            </texture>
+    """
+
+    plugin = "perlin"
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props, mixes_colors=False)
+        self.frequency = positive_float(props, self.plugin, "frequency", 1.0)
+
+    def weight(self, p: mi.Point3f) -> mi.Float:
+        f = self.frequency
+        return _noise.noise(p.x * f, p.y * f, p.z * f)
+
+    def mean_weight(self) -> float:
+        return 0.0
+
+    def describe(self) -> str:
+        return f"frequency = {self.frequency}"
+
+
+mi.register_texture("perlin", lambda props, cls=PerlinTexture: cls(props))

@@ -1,0 +1,229 @@
+"""Perlin noise and the solid textures against the independent float64 reference
+(tests/perlin64.py), the float32 breakdown, and the texture plugins' interface."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import perlin64
+
+
+def noise32(mi, p):
+    from codermind.textures import _noise
+    p = np.asarray(p, dtype=np.float32)
+    return _noise.noise(mi.Float(p[0]), mi.Float(p[1]), mi.Float(p[2])).numpy().astype(np.float64)
+
+
+def interaction(mi, p):
+    import drjit as dr
+    p = np.asarray(p, dtype=np.float32)
+    si = dr.zeros(mi.SurfaceInteraction3f, p.shape[1])
+    si.p = mi.Point3f(p)
+    return si
+
+
+def test_reference_is_perlins():
+    """The test's own reference reproduces the value printed by Perlin's Java reference
+    implementation, noise(3.14, 42, 7) = 0.136919958784, so its table and code are his."""
+    assert float(perlin64.noise(3.14, 42, 7)) == pytest.approx(0.13691995878400012, abs=1e-15)
+    assert sorted(perlin64._P[:256]) == list(range(256))
+
+
+def test_plugin_table_is_perlins_not_the_typo(llvm):
+    from codermind.textures import _noise
+    table = _noise.PERMUTATION
+    assert sorted(table) == list(range(256))          # a permutation: 23 is not doubled
+    assert table[156] == 223 and table[28] == 23
+    assert list(table) == perlin64._P[:256].tolist()
+
+
+@pytest.mark.parametrize("scale", [1.0, 10.0, 100.0, 1e3, 1e4])
+def test_noise_matches_double_reference(llvm, scale):
+    """|noise_f32(p) - noise_f64(p)| <= 2e-6 for float32 inputs p, |p_i| <= 1e4."""
+    rng = np.random.default_rng(int(scale))
+    p = (rng.uniform(-1, 1, (3, 400_000)) * scale).astype(np.float32)
+    err = np.abs(noise32(llvm, p) - perlin64.noise(*p.astype(np.float64)))
+    assert err.max() <= 2e-6
+
+
+def test_noise_near_lattice_points(llvm):
+    """Cell boundaries, negative coordinates and the wrap at 256: just below, at and just
+    above integers, where the floor and the hash change."""
+    k = np.arange(-300, 300, 7, dtype=np.float64)
+    offsets = np.array([-1e-3, -np.float32(2 ** -20), 0.0, 2 ** -20, 1e-3, 0.5])
+    grid = (k[:, None] + offsets[None, :]).ravel()
+    p = np.stack([grid, np.roll(grid, 5), np.roll(grid, 11)]).astype(np.float32)
+    err = np.abs(noise32(llvm, p) - perlin64.noise(*p.astype(np.float64)))
+    assert err.max() <= 2e-6
+    lattice = np.stack([k, k + 1, -k]).astype(np.float32)
+    assert (noise32(llvm, lattice) == 0).all()         # zero at every lattice point
+
+
+def test_float32_breakdown(llvm):
+    """Where float32 stops representing the noise (measured; a documentation test).
+
+    Here the reference is evaluated at the exact float64 point and the plugin at that point
+    rounded to float32 (as any world position is), with each coordinate's magnitude in
+    [M/2, M]. Measured with 200k points per M (seeded):
+
+    ======== ============ ============
+    M        max error    rms error
+    ======== ============ ============
+    1e4      8.5e-4       1.7e-4
+    6.6e4    6.8e-3       1.4e-3
+    9.3e4    1.3e-2       2.3e-3
+    1.3e5    1.5e-2       2.8e-3
+    5.2e5    5.5e-2       1.1e-2
+    4.2e6    0.43         8.7e-2
+    ======== ============ ============
+
+    The error first exceeds 1e-2 at M of about 8e4 (noise coordinates, i.e. world
+    coordinates times the frequency: 1.8e5 world units for the turbulence's finest octave,
+    8e5 for the bump). The noise collapses when every coordinate is >= 2^23 = 8.4e6: float32
+    has no fractional bits left, every point is a lattice point and the noise is exactly 0
+    (from 2^22 on, fractions are multiples of 1/2 and the noise is already degenerate).
+    """
+    rng = np.random.default_rng(12)
+
+    def max_err(m, n=100_000):
+        p = rng.uniform(0.5, 1, (3, n)) * rng.choice([-1, 1], (3, n)) * m
+        return np.abs(noise32(llvm, p) - perlin64.noise(*p)).max()
+
+    assert max_err(1e4) < 2e-3
+    assert max_err(2 ** 16) < 1e-2
+    assert max_err(2 ** 16.5) > 1e-2
+    assert max_err(2 ** 17) > 1e-2
+    p = rng.uniform(2 ** 23, 2 ** 24, (3, 10_000)) * rng.choice([-1, 1], (3, 10_000))
+    assert (noise32(llvm, p) == 0).all()
+    p = rng.uniform(2 ** 21, 2 ** 22, (3, 10_000))
+    assert np.std(noise32(llvm, p)) > 0.1
+
+
+@pytest.mark.parametrize("kind", ["turbulence", "marble"])
+def test_turbulence_and_marble_match_reference(llvm, kind):
+    """Within 1e-4 of the float64 formulas of spec 2.6 for |p_i| <= 1e3 (default colours:
+    the texture returns T or m itself), in eval, eval_1 and eval_3."""
+    mi = llvm
+    rng = np.random.default_rng(21)
+    p = (rng.uniform(-1, 1, (3, 200_000)) * 1e3).astype(np.float32)
+    reference = getattr(perlin64, kind)(p.astype(np.float64))
+    texture = mi.load_dict({"type": kind})
+    si = interaction(mi, p)
+    for values in (texture.eval_1(si).numpy()[None], texture.eval(si).numpy(),
+                   texture.eval_3(si).numpy()):
+        assert np.abs(values - reference).max() <= 1e-4
+
+
+def test_mix_is_unclamped(llvm):
+    """c = T color0 + (1 - T) color1 also where T > 1 (extrapolation, even negative)."""
+    mi = llvm
+    c0, c1 = np.array([0.35, 0.25, 0.01]), np.array([0.5, 0.5, 0.01])
+    texture = mi.load_dict({"type": "turbulence", "color0": {"type": "rgb", "value": c0.tolist()},
+                            "color1": {"type": "rgb", "value": c1.tolist()}})
+    rng = np.random.default_rng(5)
+    p = (rng.uniform(-1, 1, (3, 200_000)) * 1e3).astype(np.float32)
+    t = perlin64.turbulence(p.astype(np.float64))
+    assert (t > 1).sum() > 10
+    value = texture.eval(interaction(mi, p)).numpy()
+    expected = t * c0[:, None] + (1 - t) * c1[:, None]
+    np.testing.assert_allclose(value, expected, atol=1e-4)
+    assert value[0][t > 1].max() < c0[0]
+
+
+def test_frequency_octaves_and_to_world(llvm):
+    mi = llvm
+    T = mi.ScalarTransform4f
+    rng = np.random.default_rng(8)
+    p = (rng.uniform(-50, 50, (3, 50_000))).astype(np.float32)
+    si = interaction(mi, p)
+    to_world = T().translate([3, -2, 1]).rotate([0, 0, 1], 30).scale(2)
+    local = np.linalg.inv(np.array(to_world.matrix, dtype=np.float64))
+    q = local[:3, :3] @ p.astype(np.float64) + local[:3, 3:]
+    perlin = mi.load_dict({"type": "perlin", "frequency": 0.7, "to_world": to_world})
+    np.testing.assert_allclose(perlin.eval_1(si).numpy(), perlin64.noise(*(0.7 * q)), atol=2e-5)
+    turb = mi.load_dict({"type": "turbulence", "frequency": 0.2, "octaves": 3})
+    np.testing.assert_allclose(turb.eval_1(si).numpy(),
+                               perlin64.turbulence(p.astype(np.float64), 0.2, 3), atol=2e-5)
+    marble = mi.load_dict({"type": "marble", "stripe_frequency": 0.3, "octaves": 2})
+    np.testing.assert_allclose(marble.eval_1(si).numpy(),
+                               perlin64.marble(p.astype(np.float64), 0.05, 2, 0.3), atol=2e-5)
+
+
+def test_means(llvm):
+    """mean(): 0 for raw noise, the measured E|noise| for turbulence (checked here against
+    the reference over the noise's period), 1/2 for marble's m."""
+    mi = llvm
+    rng = np.random.default_rng(9)
+    p = rng.uniform(0, 256, (3, 1_000_000))
+    mean_abs = np.abs(perlin64.noise(*p)).mean()       # +- 1.4e-4 (1 sigma)
+    from codermind.textures import _noise
+    assert _noise.MEAN_ABS_NOISE == pytest.approx(mean_abs, abs=6e-4)
+    assert mi.load_dict({"type": "perlin"}).mean() == 0
+    harmonic = sum(1 / k for k in range(1, 10))
+    c0, c1 = 0.8, 0.2
+    turb = mi.load_dict({"type": "turbulence", "color0": c0, "color1": c1})
+    m = _noise.MEAN_ABS_NOISE * harmonic
+    assert turb.mean()[0] == pytest.approx(m * c0 + (1 - m) * c1, rel=1e-6)
+    marble = mi.load_dict({"type": "marble", "color0": c0, "color1": c1})
+    assert marble.mean()[0] == pytest.approx(0.5, rel=1e-6)
+
+
+def test_textures_in_both_bsdfs_from_xml(llvm):
+    """Nested in blinnphong (a reflectance, colours in [0, 1]) and in the tutorial
+    material, from XML, and rendered with path."""
+    mi = llvm
+    scene = mi.load_string("""
+    <scene version="3.0.0">
+      <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+      <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0,0,0" target="0,0,1" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+      </sensor>
+      <emitter type="tutorialpoint"><point name="position" x="0" y="0" z="0"/></emitter>
+      <shape type="sphere">
+        <point name="center" x="-60" y="0" z="300"/><float name="radius" value="50"/>
+        <bsdf type="blinnphong">
+          <texture type="marble" name="diffuse_reflectance">
+            <rgb name="color0" value="0.5, 0.5, 0.5"/><rgb name="color1" value="0.15, 0.01, 0.15"/>
+          </texture>
+        </bsdf>
+      </shape>
+      <shape type="sphere">
+        <point name="center" x="60" y="0" z="300"/><float name="radius" value="50"/>
+        <bsdf type="tutorial">
+          <texture type="turbulence" name="diffuse">
+            <rgb name="color0" value="0.35, 0.25, 0.01"/><rgb name="color1" value="0.5, 0.5, 0.01"/>
+          </texture>
+          <float name="density" value="1"/>
+        </bsdf>
+      </shape>
+    </scene>""")
+    image = mi.render(scene).numpy()
+    assert np.isfinite(image).all()
+    assert image[:, :8].mean() > 0 and image[:, 8:].mean() > 0
+
+
+@pytest.mark.parametrize("params, name", [
+    ({"type": "perlin", "frequency": 0.0}, "perlin: 'frequency'"),
+    ({"type": "turbulence", "frequency": -1.0}, "turbulence: 'frequency'"),
+    ({"type": "turbulence", "octaves": 0}, "turbulence: 'octaves'"),
+    ({"type": "marble", "octaves": 100}, "marble: 'octaves'"),
+    ({"type": "marble", "stripe_frequency": float("inf")}, "marble: 'stripe_frequency'"),
+])
+def test_bad_parameters(llvm, params, name):
+    with pytest.raises(RuntimeError, match=name):
+        llvm.load_dict(params)
+
+
+def test_scalar_variant(scalar):
+    mi = scalar
+    p = np.array([[123.25], [-45.5], [310.75]])
+    si = mi.SurfaceInteraction3f()
+    si.p = mi.Point3f(*map(float, p[:, 0]))
+    for kind, reference in (("perlin", perlin64.noise(*p)), ("turbulence", perlin64.turbulence(p)),
+                            ("marble", perlin64.marble(p))):
+        texture = mi.load_dict({"type": kind})
+        assert texture.eval_1(si) == pytest.approx(float(reference[0]), abs=1e-4)
+        assert np.allclose(np.array(texture.eval(si)), float(reference[0]), atol=1e-4)
