@@ -183,3 +183,14 @@ def test_python_dash_m_and_console_script_agree():
     out = subprocess.run([str(exe), "--help"], capture_output=True, text=True)
     assert out.returncode == 0 and "render" in out.stdout
     assert run_cli("--help").stdout == out.stdout.replace(exe.name, "codermind")
+
+
+@pytest.mark.parametrize("body, words", [
+    ('<integrator type="path"/><shape type="sphere"/>', "no sensor"),
+    ('<sensor type="perspective"/><shape type="sphere"/>', "no integrator"),
+])
+def test_scene_without_sensor_or_integrator_gives_exit_2(tmp_path, body, words):
+    scene = tmp_path / "incomplete.xml"
+    scene.write_text(f'<scene version="3.0.0">{body}</scene>')
+    line = _one_line_error(run_cli("render", scene, "-o", tmp_path / "x"))
+    assert "incomplete.xml" in line and words in line

@@ -54,6 +54,10 @@ def run(args: argparse.Namespace) -> int:
     from ..imageio import write_exr, write_png_srgb
 
     scene = load_scene(scene_path)
+    if not scene.sensors():
+        raise CodermindError(f"{scene_path}: the scene has no sensor to render from")
+    if scene.integrator() is None:
+        raise CodermindError(f"{scene_path}: the scene has no integrator")
     import drjit as dr
     threads = dr.thread_count()
     if args.deterministic:
@@ -77,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
         result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
                                progress=Progress(spp, label=scene_path.name),
                                should_stop=lambda: stop["requested"])
+    except RuntimeError as e:   # e.g. a plugin rejecting its input at render time
+        raise CodermindError(f"{scene_path}: rendering failed: {e}") from None
     finally:
         signal.signal(signal.SIGINT, previous)
         dr.set_thread_count(threads)
