@@ -33,7 +33,11 @@ class FilmMap:
 
     With a fixed ``pixel_offset`` the sample's pixel is ``floor(sample2 * crop_size)``
     and the position inside it is replaced by the offset, so every sample of a pixel
-    goes through the same point of it.
+    goes through the same point of it. The integrator computes ``sample2`` as
+    ``(pixel + jitter) / size`` in float32: for a jitter within about one float ulp of 1
+    the pixel is ambiguous (``pixel + jitter`` rounds to ``pixel + 1``), so a fraction of
+    about 5e-5 of randomly jittered samples goes through the neighbour pixel's point.
+    A sampler without jitter (``stratified`` with ``jitter`` false) has none.
     """
 
     def __init__(self, film: mi.Film, offset: tuple[float, float] | None, plugin: str):
@@ -49,7 +53,8 @@ class FilmMap:
     def __call__(self, sample2: mi.Point2f) -> mi.Point2f:
         p = mi.Point2f(sample2) * self.crop_size
         if self.offset is not None:
-            pixel = dr.clip(dr.floor(p), 0.0, self.crop_size - 1.0)
+            # One ulp down: (pixel + jitter) / size * size tends to round up.
+            pixel = dr.clip(dr.floor(p * (1.0 - 2.0**-23)), 0.0, self.crop_size - 1.0)
             p = pixel + mi.Vector2f(self.offset[0], self.offset[1])
         return (p + self.crop_offset) / self.size
 
