@@ -6,6 +6,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
+
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
 FACE_AXES = ("+y", "-y", "+x", "-x", "+z", "-z")
@@ -253,10 +255,10 @@ class CubeMap(mi.Emitter):
 
     def sample_direction(self, it: mi.Interaction3f, sample: mi.Point2f,
                          active: mi.Bool = True) -> tuple[mi.DirectionSample3f, mi.Spectrum]:
-        ds = mi.DirectionSample3f()
+        ds = zero_direction_sample()
         ds.time = it.time
         ds.delta = mi.Bool(False)
-        ds.emitter = mi.EmitterPtr(self)
+        ds.emitter = emitter_ptr(self)
         if self.mode == "background":
             ds.pdf = mi.Float(0.0)
             return ds, mi.Spectrum(0.0)
@@ -270,7 +272,9 @@ class CubeMap(mi.Emitter):
         ds.d = d
         active &= pdf > 0.0
         ds.pdf = dr.select(active, pdf, 0.0)
-        value = self._spectrum(self.lookup(local, active))
+        # From the world direction, as eval_direction(ds) does, so that weight * pdf is
+        # that value to the last bit (the exposed decode magnifies rounding up to 1000x).
+        value = self._spectrum(self.lookup(self._to_local(d), active))
         weight = dr.select(active, value / dr.select(active, pdf, 1.0), 0.0)
         return ds, mi.Spectrum(weight)
 
@@ -303,7 +307,7 @@ class CubeMap(mi.Emitter):
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
-        return mi.PositionSample3f(), mi.Float(0.0)
+        return zero_position_sample(), mi.Float(0.0)
 
     def pdf_position(self, ps: mi.PositionSample3f, active: mi.Bool = True) -> mi.Float:
         return mi.Float(0.0)
@@ -378,13 +382,9 @@ def load_faces(props: mi.Properties) -> list[tuple[str, np.ndarray]]:
     for name in FACES:
         value = props.get(name)
         if isinstance(value, mi.Bitmap):
-            label, bitmap, flip = f"<Bitmap for '{name}'>", value, True
+            faces.append((f"<Bitmap for '{name}'>", _bitmap_rgb(value)[::-1]))
         else:
-            label, bitmap, flip = _read_face(name, str(value))
-        rgb = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32,
-                             bitmap.srgb_gamma())
-        pixels = np.array(rgb, dtype=np.float64).reshape(rgb.height(), rgb.width(), 3)
-        faces.append((label, pixels[::-1] if flip else pixels))
+            faces.append(_read_face(name, str(value)))
     up_label, up = faces[0]
     for (label, pixels), name in zip(faces, FACES):
         if pixels.shape != up.shape:
@@ -394,24 +394,55 @@ def load_faces(props: mi.Properties) -> list[tuple[str, np.ndarray]]:
     return faces
 
 
-def _read_face(name: str, filename: str) -> tuple[str, mi.Bitmap, bool]:
-    """Read face ``name`` from ``filename`` (resolved like Mitsuba's own files); also say
-    whether Mitsuba's rows must be flipped to put the tutorial's v = 0 first."""
+def _bitmap_rgb(bitmap: mi.Bitmap) -> np.ndarray:
+    """Stored values normalised to [0, 1] (no sRGB decoding), rows top to bottom."""
+    rgb = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32,
+                         bitmap.srgb_gamma())
+    return np.array(rgb, dtype=np.float64).reshape(rgb.height(), rgb.width(), 3)
+
+
+def _read_face(name: str, filename: str) -> tuple[str, np.ndarray]:
+    """Face ``name`` from ``filename`` (resolved like Mitsuba's own files), rows ordered
+    so that the tutorial's v = 0 comes first."""
     path = Path(str(mi.file_resolver().resolve(filename)))
     if not path.is_file():
         raise ValueError(f"cubemap: face '{name}': file '{filename}' not found")
+    is_tga = path.suffix.lower() == ".tga"
     try:
-        bitmap = mi.Bitmap(str(path))
+        pixels = _bitmap_rgb(mi.Bitmap(str(path)))
     except Exception as e:        # Mitsuba raises RuntimeError with its own prefix
-        reason = str(e).strip().splitlines()[-1] if str(e).strip() else type(e).__name__
-        raise ValueError(f"cubemap: face '{name}': cannot read '{filename}': {reason}") from None
-    flip = True
-    if path.suffix.lower() == ".tga":
+        # Mitsuba recognises only TGAs with the version-2 footer; read plain ones here.
+        stored = _read_plain_tga(path) if is_tga else None
+        if stored is None:
+            lines = str(e).strip().splitlines()
+            raise ValueError(f"cubemap: face '{name}': cannot read '{filename}': "
+                             f"{lines[-1] if lines else type(e).__name__}") from None
+        return str(path), stored
+    if is_tga:
+        # Mitsuba flips bottom-left-origin TGAs to top-down; the tutorial reads stored order.
         with open(path, "rb") as f:
             header = f.read(18)
-        # Descriptor bit 5 set: top-left origin, the first stored row is Mitsuba's row 0.
-        flip = not (len(header) == 18 and header[17] & 0x20)
-    return str(path), bitmap, flip
+        if len(header) == 18 and header[17] & 0x20:     # top-left origin: stored = Mitsuba's
+            return str(path), pixels
+    return str(path), pixels[::-1]
+
+
+def _read_plain_tga(path: Path) -> np.ndarray | None:
+    """An uncompressed true-colour (24/32 bit) or grey (8 bit) TGA in stored row order,
+    as the tutorial's loader reads it; None if the file is not one."""
+    data = path.read_bytes()
+    if len(data) < 18:
+        return None
+    kind, width, height, bits = data[2], data[12] | data[13] << 8, data[14] | data[15] << 8, data[16]
+    channels = {(2, 24): 3, (2, 32): 4, (3, 8): 1}.get((kind, bits))
+    start = 18 + data[0]
+    if channels is None or width == 0 or len(data) < start + width * height * channels:
+        return None
+    pixels = np.frombuffer(data, np.uint8, width * height * channels, start)
+    pixels = pixels.reshape(height, width, channels) / 255.0
+    if channels == 1:
+        return np.repeat(pixels, 3, axis=2)
+    return pixels[..., 2::-1]                 # B, G, R(, A) -> R, G, B
 
 
 mi.register_emitter("cubemap", lambda props, cls=CubeMap: cls(props))

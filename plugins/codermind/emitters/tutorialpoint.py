@@ -3,6 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
+
 
 class TutorialPointLight(mi.Emitter):
     r"""
@@ -74,14 +76,14 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_direction(self, it: mi.Interaction3f, sample: mi.Point2f,
                          active: mi.Bool = True) -> tuple[mi.DirectionSample3f, mi.Spectrum]:
-        ds = dr.zeros(mi.DirectionSample3f)
+        ds = zero_direction_sample()
         ds.p = mi.Point3f(self.position)
         ds.n = mi.Normal3f(0.0)
         ds.uv = mi.Point2f(0.0)
         ds.time = it.time
         ds.pdf = mi.Float(1.0)
         ds.delta = mi.Bool(True)
-        ds.emitter = mi.EmitterPtr(self)
+        ds.emitter = emitter_ptr(self)
         ds.d = ds.p - it.p
         dist2 = dr.squared_norm(ds.d)
         inv_dist = dr.rsqrt(dist2)
@@ -105,7 +107,7 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
-        ps = dr.zeros(mi.PositionSample3f)
+        ps = zero_position_sample()
         ps.p = mi.Point3f(self.position)
         ps.time = time
         ps.delta = mi.Bool(True)
