@@ -5,6 +5,7 @@ mode, bad input."""
 
 from __future__ import annotations
 
+import functools
 import math
 import shutil
 from pathlib import Path
@@ -235,11 +236,18 @@ def latlong_from_spec(tex: np.ndarray, decode: dict, width: int) -> np.ndarray:
     return rgb.reshape(h, width, 3).astype(np.float32)
 
 
-def lit_sphere(mi, emitter: dict) -> object:
+@functools.lru_cache(maxsize=1)
+def bundled_latlong(tutorial_dir: Path) -> np.ndarray:
+    """The page-4 sky (srgb and exposed decodes) as a 2048 x 1024 lat-long map."""
+    decode = {"srgb": True, "exposed": True, "exposure": 1.0}
+    return latlong_from_spec(bundled_texture(tutorial_dir), decode, 2048)
+
+
+def lit_sphere(mi, emitter: dict, integrator: dict | None = None) -> object:
     """A white diffuse sphere filling the frame, direct lighting only (path, depth 2)."""
     return mi.load_dict({
         "type": "scene",
-        "integrator": {"type": "moment", "path": {"type": "path", "max_depth": 2}},
+        "integrator": integrator or {"type": "moment", "path": {"type": "path", "max_depth": 2}},
         "sensor": {"type": "perspective", "fov": 20.0,
                    "to_world": mi.ScalarTransform4f().look_at([0.5, 1.0, -3.6], [0, 0, 0], [0, 1, 0]),
                    "sampler": {"type": "independent"},
@@ -253,9 +261,7 @@ def test_lights_a_sphere_like_builtin_envmap(llvm, tutorial_dir):
     the two differ only by the lat-long's bilinear resampling, far below the noise of
     the irradiance (a smooth integral of the radiance)."""
     mi = llvm
-    decode = {"srgb": True, "exposed": True, "exposure": 1.0}
-    latlong = latlong_from_spec(bundled_texture(tutorial_dir), decode, 2048)
-    ref = lit_sphere(mi, {"type": "envmap", "bitmap": mi.Bitmap(latlong)})
+    ref = lit_sphere(mi, {"type": "envmap", "bitmap": mi.Bitmap(bundled_latlong(tutorial_dir))})
     mine = lit_sphere(mi, bundled(tutorial_dir, srgb=True, exposed=True))
     ref_moments = zstat.render_moments(mi, ref, 256, seed=1)
     result = zstat.two_sample(ref_moments, zstat.render_moments(mi, mine, 256, seed=2))
@@ -264,6 +270,21 @@ def test_lights_a_sphere_like_builtin_envmap(llvm, tutorial_dir):
     turned = lit_sphere(mi, bundled(tutorial_dir, srgb=True, exposed=True,
                                     to_world=mi.ScalarTransform4f().rotate([0, 1, 0], 90)))
     assert not zstat.two_sample(ref_moments, zstat.render_moments(mi, turned, 256, seed=3)).passed
+
+
+def test_light_tracing_matches_builtin_envmap(llvm, tutorial_dir):
+    """sample_ray (rays from the scene's bounding sphere, given by attach_scene) through
+    the particle tracer: the sphere's mean brightness as with envmap's sample_ray."""
+    mi = llvm
+    from codermind.scene import attach_emitters
+    means = []
+    for env in ({"type": "envmap", "bitmap": mi.Bitmap(bundled_latlong(tutorial_dir))},
+                bundled(tutorial_dir, srgb=True, exposed=True)):
+        scene = lit_sphere(mi, env, {"type": "ptracer", "max_depth": 2})
+        attach_emitters(scene)
+        means.append(np.array(mi.render(scene, spp=1024, seed=4)).mean(axis=(0, 1)))
+    assert means[0].min() > 0.3
+    assert np.allclose(means[1], means[0], rtol=0.02)
 
 
 # -- background mode ----------------------------------------------------------------------

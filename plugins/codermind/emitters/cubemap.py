@@ -156,7 +156,10 @@ class CubeMap(mi.Emitter):
             texels = np.repeat(texels[..., None], 3, axis=-1)
         texels = np.ascontiguousarray(texels, dtype=np.float32)
         # JIT variants gather from a Dr.Jit array; scalar variants index numpy rows.
-        self.data = mi.Float(texels.ravel()) if dr.is_jit_v(mi.Float) else texels.reshape(-1, 3)
+        if dr.is_jit_v(mi.Float):       # RGBx: one 4-wide packet gather per texel
+            self.data = mi.Float(np.pad(texels.reshape(-1, 3), ((0, 0), (0, 1))).ravel())
+        else:
+            self.data = texels.reshape(-1, 3)
 
         self.bsphere_center = mi.Point3f(0.0)
         self.bsphere_radius = mi.Float(DEFAULT_SCENE_RADIUS)
@@ -196,7 +199,8 @@ class CubeMap(mi.Emitter):
 
     def _texel(self, index: mi.Int32, active: mi.Bool) -> mi.Color3f:
         if dr.is_jit_v(mi.Float):
-            return dr.gather(mi.Color3f, self.data, mi.UInt32(index), active)
+            texel = dr.gather(mi.Vector4f, self.data, mi.UInt32(index), active)
+            return mi.Color3f(texel.x, texel.y, texel.z)
         return mi.Color3f(*(float(x) for x in self.data[int(index)]))
 
     def _spectrum(self, c: mi.Color3f) -> mi.Spectrum:
@@ -218,7 +222,14 @@ class CubeMap(mi.Emitter):
 
     def _cell_weights(self, texels: np.ndarray) -> np.ndarray:
         """Sampling weight of each texel cell, rows of all faces stacked: (6 H, W)."""
-        lum = np.abs(self._decode(texels.astype(np.float64))) @ np.array([0.212671, 0.715160, 0.072169])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            decoded = self._decode(texels.astype(np.float64))
+        bad = ~np.isfinite(decoded).all(axis=-1)
+        if bad.any():
+            mi.Log(mi.LogLevel.Warn, f"cubemap: the decodes give non-finite radiance for "
+                   f"{int(bad.sum())} texels ('exposed' needs values below 1.001, 'srgb' "
+                   f"values >= 0); they are never sampled")
+        lum = np.abs(np.where(bad[..., None], 0.0, decoded)) @ np.array([0.212671, 0.715160, 0.072169])
         nxt = lambda a, axis: np.concatenate([np.delete(a, 0, axis), np.take(a, [-1], axis)], axis)
         corners = (lum + nxt(lum, 2) + nxt(lum, 1) + nxt(nxt(lum, 1), 2)) / 4
         h, w = lum.shape[1:]
@@ -289,7 +300,7 @@ class CubeMap(mi.Emitter):
         """A ray from the scene's bounding sphere towards the scene (light tracing)."""
         if self.mode == "background":
             return mi.Ray3f(mi.Point3f(0.0), mi.Vector3f(0.0, 0.0, 1.0), time,
-                            dr.zeros(mi.Wavelength)), mi.Spectrum(0.0)
+                            _no_wavelengths()), mi.Spectrum(0.0)
         local, pdf = self._sample_local(sample3, active)
         to_env = self.world_transform() @ local
         offset = mi.warp.square_to_uniform_disk_concentric(sample2)
@@ -299,11 +310,11 @@ class CubeMap(mi.Emitter):
         value = self._spectrum(self.lookup(local, active))
         area = dr.pi * dr.square(self.bsphere_radius)
         weight = dr.select(active, value * area / dr.select(active, pdf, 1.0), 0.0)
-        return mi.Ray3f(origin, -to_env, time, dr.zeros(mi.Wavelength)), mi.Spectrum(weight)
+        return mi.Ray3f(origin, -to_env, time, _no_wavelengths()), mi.Spectrum(weight)
 
     def sample_wavelengths(self, si: mi.SurfaceInteraction3f, sample: mi.Float,
                            active: mi.Bool = True) -> tuple[mi.Wavelength, mi.Spectrum]:
-        return dr.zeros(mi.Wavelength), mi.Spectrum(1.0)
+        return _no_wavelengths(), mi.Spectrum(1.0)
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
@@ -336,6 +347,11 @@ class CubeMap(mi.Emitter):
                 f"  resolution = {self.res},\n  srgb = {self.srgb},\n"
                 f"  exposed = {self.exposed},\n  exposure = {self.exposure},\n"
                 f"  scale = {self.scale}\n]")
+
+
+def _no_wavelengths():
+    """The (empty) wavelength record of RGB and monochromatic variants."""
+    return dr.zeros(type(mi.Ray3f().wavelengths))
 
 
 def face_uv(d: mi.Vector3f) -> tuple[mi.Int32, mi.Float, mi.Float]:

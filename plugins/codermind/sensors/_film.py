@@ -109,3 +109,9 @@ def check_rigid(matrix: np.ndarray, plugin: str) -> None:
     if not np.allclose(linear.T @ linear, np.eye(3), atol=1e-4):
         raise ValueError(f"{plugin}: 'to_world' must be a rotation or reflection plus a "
                          f"translation (no scale or shear)")
+
+
+def origin_of(transform) -> mi.ScalarPoint3f:
+    """The scalar world position of a camera-to-world transform's origin."""
+    p = transform @ mi.Point3f(0.0)
+    return mi.ScalarPoint3f([float(dr.slice(c)) if dr.is_jit_v(c) else float(c) for c in p])

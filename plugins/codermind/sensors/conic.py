@@ -5,7 +5,8 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from codermind.sensors._film import FilmMap, check_rigid, read_pixel_offset, to_world_matrix, x_fov
+from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel_offset,
+                                    to_world_matrix, x_fov)
 
 
 class ConicCamera(mi.Sensor):
@@ -198,8 +199,7 @@ class ConicCamera(mi.Sensor):
         return ray, weight
 
     def bbox(self) -> mi.ScalarBoundingBox3f:
-        p = to_world_scalar_origin(self.world_transform())
-        return mi.ScalarBoundingBox3f(p)
+        return mi.ScalarBoundingBox3f(origin_of(self.world_transform()))
 
     def to_string(self) -> str:
         return (f"ConicCamera[\n  lens = {self.lens},\n  x_fov = {self.x_fov},\n"
@@ -207,11 +207,6 @@ class ConicCamera(mi.Sensor):
                 f"  near_clip = {self.near_clip},\n  far_clip = {self.far_clip},\n"
                 f"  pixel_offset = {self.film_map.offset},\n  film = {self.film()},\n"
                 f"  to_world = {self.world_transform()}\n]")
-
-
-def to_world_scalar_origin(transform) -> mi.ScalarPoint3f:
-    p = transform @ mi.Point3f(0.0)
-    return mi.ScalarPoint3f([float(dr.slice(c)) if dr.is_jit_v(c) else float(c) for c in p])
 
 
 mi.register_sensor("conic", lambda props, cls=ConicCamera: cls(props))

@@ -3,8 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from codermind.sensors._film import FilmMap, read_pixel_offset
-from codermind.sensors.conic import to_world_scalar_origin
+from codermind.sensors._film import FilmMap, origin_of, read_pixel_offset
 
 
 class TutorialOrthoCamera(mi.Sensor):
@@ -107,7 +106,7 @@ class TutorialOrthoCamera(mi.Sensor):
         return ray, weight
 
     def bbox(self) -> mi.ScalarBoundingBox3f:
-        return mi.ScalarBoundingBox3f(to_world_scalar_origin(self.world_transform()))
+        return mi.ScalarBoundingBox3f(origin_of(self.world_transform()))
 
     def to_string(self) -> str:
         return (f"TutorialOrthoCamera[\n  near_clip = {self.near_clip},\n"
