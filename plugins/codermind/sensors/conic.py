@@ -66,7 +66,10 @@ class ConicCamera(mi.Sensor):
          [0, 1]. Both or neither. Without them the integrator's random jitter is used.
          Meant for a ``box`` reconstruction filter. (0, 1) is the pixel's bottom-left
          corner: with a film of twice the tutorial's resolution it reproduces the
-         tutorial's 2x2 sub-sample grid (see below).
+         tutorial's 2x2 sub-sample grid (see below). The pixel is
+         ``floor(sample2 * size)``: with a jittering sampler about 5e-5 of the samples
+         (those within a float ulp of the pixel's edge) take the neighbour's point; a
+         sampler without jitter (``stratified``, ``jitter`` false) has none.
 
     A Python port of Mitsuba's perspective camera with a thin lens. ``sample_ray`` and
     ``sample_ray_differential`` are implemented (the camera cannot be sampled from the

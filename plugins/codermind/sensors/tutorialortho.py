@@ -33,7 +33,9 @@ class TutorialOrthoCamera(mi.Sensor):
        - |float|
        - Optional fixed position of every film sample inside its film pixel, in pixels
          from the pixel's top-left corner (x right, y down), each in [0, 1]; both or
-         neither (Default: the integrator's random jitter). Use a ``box`` filter.
+         neither (Default: the integrator's random jitter). Use a ``box`` filter, and
+         for exact positions a sampler without jitter (``stratified``, ``jitter``
+         false): with jitter about 5e-5 of the samples take the neighbour's point.
 
     The built-in :monosp:`orthographic` camera (same rays for the same samples) with a
     clip range that may start at 0 and the fixed sample position of :monosp:`conic`.
