@@ -60,6 +60,18 @@ def test_tutorial_lens_rays_follow_the_spec_construction(llvm):
     assert np.allclose(maxt, 2000.0)
 
 
+def test_tutorial_probe_rays(llvm):
+    """The auto-exposure probes of spec 2.5: un-jittered rays (sample3 = 0) through
+    pixel corners (i s, j s), s = max(W, H)/16, some above the image (y > H)."""
+    mi = llvm
+    sensor = mi.load_dict(tutorial_camera(mi, fov=90.0, focus=450.0, aperture=10.0))
+    i, j = np.mgrid[0:16, 0:16].reshape(2, -1).astype(np.float64) * (max(W, H) / 16)
+    o, d, _ = rays(mi, sensor, (i / W, 1 - j / H), np.zeros((2, i.size)))
+    o_ref, d_ref = spec_ray(i, j, 0 * i, 0 * i, 90.0, 450.0, 0.0)
+    assert (j > H).any()
+    assert np.abs(o - o_ref).max() < 1e-5 and np.abs(d - d_ref).max() < 2e-6
+
+
 def test_tutorial_grid_with_fixed_pixel_offset(llvm):
     """A 2W x 2H film with pixel_offset (0, 1): film pixel (c, r) is the tutorial's
     sub-sample (c/2, (2H-1-r)/2), whatever the jitter inside the film pixel."""

@@ -71,6 +71,11 @@ class ConicCamera(mi.Sensor):
          (those within a float ulp of the pixel's edge) take the neighbour's point; a
          sampler without jitter (``stratified``, ``jitter`` false) has none.
 
+    With ``lens`` = ``tutorial``, ``sample3`` = (0, 0) gives the un-jittered ray from the
+    optical centre (the tutorial's auto-exposure probes); with ``disc``, (0.5, 0.5). A
+    ``sample2`` outside [0, 1]^2 extrapolates (the probes reach above the image), unless
+    a pixel offset is set, which snaps every position to its pixel's point.
+
     A Python port of Mitsuba's perspective camera with a thin lens. ``sample_ray`` and
     ``sample_ray_differential`` are implemented (the camera cannot be sampled from the
     scene side: no ``sample_direction``, so light tracing is not supported).
