@@ -38,21 +38,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 _PREFIX = re.compile(r"^\[[\w.]+:\d+\]\s*")
-_TRACEBACK = "Traceback (most recent call last):"
-_EXCEPTION = re.compile(r"^\w*(Error|Exception): ")
 _UNREFERENCED = re.compile(
     r'While loading (?P<file>.+?) \(line (?P<line>\d+), col (?P<col>\d+)\): Found \d+ unreferenced '
     r'propert(?:y|ies) in (?P<kind>\w+) plugin of type "(?P<type>[^"]+)":\s*-\s*\w+ "(?P<name>[^"]+)"')
 
 
+# A Python traceback that Mitsuba embeds when a Python plugin's constructor raises: keep
+# only the exception line that follows it (e.g. "ValueError: tutorial: 'power' ...").
+_TRACEBACK = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t]+.*\n)*")
+
+
 def one_line(message: str) -> str:
     """Condense a (possibly multi-line, Mitsuba-prefixed) error message into one line."""
-    message = str(message).strip()
-    if _TRACEBACK in message:
-        # A Python plugin's exception: keep Mitsuba's context and the exception's message.
-        head, _, tail = message.partition(_TRACEBACK)
-        last = [line.strip() for line in tail.splitlines() if line.strip()][-1]
-        message = f"{head.rstrip()} {_EXCEPTION.sub('', last)}"
+    message = _TRACEBACK.sub("", str(message).strip())
     m = _UNREFERENCED.search(message)
     if m:
         return (f'{m["file"]}:{m["line"]}:{m["col"]}: unknown parameter "{m["name"]}" '

@@ -3,8 +3,6 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
-
 
 class TutorialPointLight(mi.Emitter):
     r"""
@@ -76,14 +74,14 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_direction(self, it: mi.Interaction3f, sample: mi.Point2f,
                          active: mi.Bool = True) -> tuple[mi.DirectionSample3f, mi.Spectrum]:
-        ds = zero_direction_sample()
+        ds = mi.DirectionSample3f()  # dr.zeros() cannot build it in scalar variants
         ds.p = mi.Point3f(self.position)
         ds.n = mi.Normal3f(0.0)
         ds.uv = mi.Point2f(0.0)
         ds.time = it.time
         ds.pdf = mi.Float(1.0)
         ds.delta = mi.Bool(True)
-        ds.emitter = emitter_ptr(self)
+        ds.emitter = mi.EmitterPtr(self) if dr.is_jit_v(mi.Float) else self
         ds.d = ds.p - it.p
         dist2 = dr.squared_norm(ds.d)
         inv_dist = dr.rsqrt(dist2)
@@ -107,7 +105,7 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
-        ps = zero_position_sample()
+        ps = mi.PositionSample3f()
         ps.p = mi.Point3f(self.position)
         ps.time = time
         ps.delta = mi.Bool(True)
