@@ -19,6 +19,21 @@ def load_scene(path: str | os.PathLike, **params) -> mi.Scene:
     if not path.is_file():
         raise CodermindError(f"{path}: no such scene file")
     try:
-        return mi.load_file(str(path), **params)
+        scene = mi.load_file(str(path), **params)
     except (RuntimeError, ValueError, TypeError) as e:
-        raise CodermindError(str(e)) from None
+        message = str(e)
+        if "no probability mass" in message:
+            message += (" (every emitter has sampling_weight 0, e.g. the only emitter is a "
+                        "background-mode cubemap: give it sampling_weight 1)")
+        raise CodermindError(message) from None
+    attach_emitters(scene)
+    return scene
+
+
+def attach_emitters(scene: mi.Scene) -> None:
+    """Give Python emitters that need it the loaded scene (Mitsuba's ``set_scene`` is not
+    forwarded to Python plugins), e.g. the bounding sphere of ``cubemap``."""
+    for emitter in scene.emitters():
+        attach = getattr(emitter, "attach_scene", None)
+        if callable(attach):
+            attach(scene)

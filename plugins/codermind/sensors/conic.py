@@ -1,0 +1,220 @@
+from __future__ import annotations  # Delayed parsing of type annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+
+from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel_offset,
+                                    to_world_matrix, x_fov)
+
+
+class ConicCamera(mi.Sensor):
+    r"""
+    .. _sensor-conic:
+
+    Thin-lens perspective camera (:monosp:`conic`)
+    ----------------------------------------------
+
+    .. pluginparameters::
+
+     * - to_world
+       - |transform|
+       - Camera-to-world transformation: a rotation or a reflection, and a translation
+         (no scale). Camera space is Mitsuba's: it looks along :math:`+z`, :math:`+y` is
+         up in the image and :math:`+x` is to the image's LEFT. (Default: identity)
+
+     * - fov, fov_axis
+       - |float|, |string|
+       - Field of view in degrees, in (0, 180), and the image axis it applies to: ``x``
+         (default), ``y``, ``diagonal``, ``smaller``, ``larger`` (as :monosp:`perspective`).
+
+     * - focal_length
+       - |string|
+       - Alternative to ``fov``: 35 mm equivalent focal length (Default: ``50mm``).
+
+     * - aperture
+       - |float|
+       - Aperture size in world units, >= 0. ``disc``: the radius of the lens disc;
+         ``tutorial``: the side of the square aperture. 0 gives a pinhole (Default: 0).
+
+     * - focus_distance
+       - |float|
+       - Distance at which the image is sharp, >= 0 (> 0 if ``aperture`` > 0).
+         ``disc``: of the focal PLANE :math:`z` = focus_distance; ``tutorial``: of the
+         focus SPHERE, measured along each un-jittered ray (Default: ``far_clip``).
+
+     * - lens
+       - |string|
+       - ``disc`` (default): centred disc aperture and focal plane, the model of the
+         built-in :monosp:`thinlens`. ``tutorial``: the Codermind tutorial's lens: a square
+         aperture :math:`[0, D]^2` off the optical centre, extending towards the image's
+         right and top edges, with the focus sphere (:math:`u_1` = ``sample3.x`` along the
+         image's right, :math:`u_2` = ``sample3.y`` along its top).
+
+     * - near_clip, far_clip
+       - |float|
+       - Clip distances, 0 <= near < far (Default: 0.01, 10000). ``disc``: planes
+         perpendicular to the view axis, as :monosp:`thinlens` (the ray starts on the near
+         plane). ``tutorial``: distances along each ray (the ray starts ``near_clip``
+         from the lens and is ``far_clip - near_clip`` long).
+
+     * - pixel_offset_x, pixel_offset_y
+       - |float|
+       - Optional fixed position of every film sample inside its film pixel, in pixels
+         from the pixel's top-left corner (x right, y down, as film rows), each in
+         [0, 1]. Both or neither. Without them the integrator's random jitter is used.
+         Meant for a ``box`` reconstruction filter. (0, 1) is the pixel's bottom-left
+         corner: with a film of twice the tutorial's resolution it reproduces the
+         tutorial's 2x2 sub-sample grid (see below). The pixel is
+         ``floor(sample2 * size)``: with a jittering sampler about 5e-5 of the samples
+         (those within a float ulp of the pixel's edge) take the neighbour's point; a
+         sampler without jitter (``stratified``, ``jitter`` false) has none.
+
+    With ``lens`` = ``tutorial``, ``sample3`` = (0, 0) gives the un-jittered ray from the
+    optical centre (the tutorial's auto-exposure probes); with ``disc``, (0.5, 0.5). A
+    ``sample2`` outside [0, 1]^2 extrapolates (the probes reach above the image), unless
+    a pixel offset is set, which snaps every position to its pixel's point.
+
+    A Python port of Mitsuba's perspective camera with a thin lens. ``sample_ray`` and
+    ``sample_ray_differential`` are implemented (the camera cannot be sampled from the
+    scene side: no ``sample_direction``, so light tracing is not supported).
+
+    **The tutorial's page-4 camera** (image :math:`W \times H`, ``FOV``, ``ClearPoint``,
+    ``Dispersion``): the tutorial's world is left-handed (x right, y up, z into the
+    screen), camera space is Mitsuba's (x left), so ``to_world`` mirrors x and moves the
+    eye to :math:`(W/2, H/2, 0)`; ``fov`` is the tutorial's horizontal FOV. Its 2x2
+    sub-sample grid at :math:`(x + \{0, \frac12\}, y + \{0, \frac12\})` is a film of
+    :math:`2W \times 2H` with ``pixel_offset`` (0, 1) and a box filter.
+
+    .. tabs::
+
+        .. code-tab:: xml
+
+            <sensor type="conic">
+                <string name="lens" value="tutorial"/>
+                <float name="fov" value="90"/>
+                <float name="focus_distance" value="450"/>
+                <float name="aperture" value="10"/>
+                <float name="near_clip" value="0"/>
+                <float name="far_clip" value="2000"/>
+                <float name="pixel_offset_x" value="0"/>
+                <float name="pixel_offset_y" value="1"/>
+                <transform name="to_world">
+                    <scale x="-1"/>
+                    <translate x="320" y="240" z="0"/>
+                </transform>
+                <film type="hdrfilm">
+                    <integer name="width" value="1280"/>
+                    <integer name="height" value="960"/>
+                    <rfilter type="box"/>
+                </film>
+            </sensor>
+    """
+
+    LENSES = ("disc", "tutorial")
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props)
+        matrix = to_world_matrix(props)
+        check_rigid(matrix, "conic")
+        film = self.film()
+        size = film.size()
+        self.x_fov = x_fov(props, size[0] / size[1], "conic")
+        self.lens = str(props.get("lens", "disc"))
+        if self.lens not in self.LENSES:
+            raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got '{self.lens}'")
+        self.near_clip = float(props.get("near_clip", 1e-2))
+        self.far_clip = float(props.get("far_clip", 1e4))
+        if not 0.0 <= self.near_clip < self.far_clip:
+            raise ValueError(f"conic: need 0 <= 'near_clip' < 'far_clip', got "
+                             f"{self.near_clip:g} and {self.far_clip:g}")
+        self.aperture = float(props.get("aperture", 0.0))
+        self.focus_distance = float(props.get("focus_distance", self.far_clip))
+        if not self.aperture >= 0.0:
+            raise ValueError(f"conic: 'aperture' must be >= 0, got {self.aperture:g}")
+        if not self.focus_distance >= 0.0:
+            raise ValueError(f"conic: 'focus_distance' must be >= 0, got "
+                             f"{self.focus_distance:g}")
+        if self.aperture > 0.0 and self.focus_distance == 0.0:
+            raise ValueError("conic: 'focus_distance' must be > 0 when 'aperture' > 0")
+        self.film_map = FilmMap(film, read_pixel_offset(props, "conic"), "conic")
+        # Near-plane direction for a whole-film position s in [0, 1]^2:
+        # ((1 - 2 s.x) tan_x, (1 - 2 s.y) tan_y, 1) (x left, y up).
+        tan_x = math.tan(math.radians(0.5 * self.x_fov))
+        self.tan_half = mi.ScalarVector2f(tan_x, tan_x * size[1] / size[0])
+        self.pixel_step = mi.ScalarVector2f(2.0 / size[0], 2.0 / size[1]) * self.tan_half
+        self.m_needs_sample_3 = self.aperture > 0.0
+
+    def _local_direction(self, sample2: mi.Point2f) -> mi.Vector3f:
+        s = self.film_map(sample2)
+        xy = (1.0 - 2.0 * s) * self.tan_half
+        return mi.Vector3f(xy.x, xy.y, 1.0)
+
+    def _aperture_point(self, sample3: mi.Point2f) -> mi.Point3f:
+        if self.lens == "disc":
+            p = self.aperture * mi.warp.square_to_uniform_disk_concentric(sample3)
+            return mi.Point3f(p.x, p.y, 0.0)
+        # Towards the image's right (camera -x) and top (camera +y).
+        return mi.Point3f(-self.aperture * sample3.x, self.aperture * sample3.y, 0.0)
+
+    def _focus_point(self, q: mi.Vector3f) -> mi.Point3f:
+        if self.lens == "disc":
+            return mi.Point3f(q * self.focus_distance)
+        return mi.Point3f(dr.normalize(q) * self.focus_distance)
+
+    def _ray(self, aperture_p: mi.Point3f, q: mi.Vector3f) -> tuple[mi.Point3f, mi.Vector3f, mi.Float]:
+        """World origin, world direction and length of the ray from the aperture point
+        through the focus point of near-plane direction ``q``, clipped."""
+        d = dr.normalize(mi.Vector3f(self._focus_point(q) - aperture_p))
+        to_world = self.world_transform()
+        o = to_world @ aperture_p
+        d_world = to_world @ d
+        if self.lens == "disc":
+            inv_z = dr.rcp(d.z)
+            near_t, far_t = self.near_clip * inv_z, self.far_clip * inv_z
+        else:
+            near_t, far_t = mi.Float(self.near_clip), mi.Float(self.far_clip)
+        return o + d_world * near_t, d_world, far_t - near_t
+
+    def sample_ray(self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f,
+                   sample3: mi.Point2f, active: mi.Bool = True) -> tuple[mi.Ray3f, mi.Spectrum]:
+        wavelengths, weight = self.sample_wavelengths(
+            dr.zeros(mi.SurfaceInteraction3f), sample1, active)
+        o, d, maxt = self._ray(self._aperture_point(sample3), self._local_direction(sample2))
+        ray = mi.Ray3f(o, d, time, wavelengths)
+        ray.maxt = maxt
+        return ray, weight
+
+    def sample_ray_differential(self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f,
+                                sample3: mi.Point2f, active: mi.Bool = True
+                                ) -> tuple[mi.RayDifferential3f, mi.Spectrum]:
+        wavelengths, weight = self.sample_wavelengths(
+            dr.zeros(mi.SurfaceInteraction3f), sample1, active)
+        aperture_p = self._aperture_point(sample3)
+        q = self._local_direction(sample2)
+        o, d, maxt = self._ray(aperture_p, q)
+        # One pixel right (camera -x) and one pixel down (camera -y).
+        to_world = self.world_transform()
+        q_x = mi.Vector3f(q.x - self.pixel_step.x, q.y, q.z)
+        q_y = mi.Vector3f(q.x, q.y - self.pixel_step.y, q.z)
+        ray = mi.RayDifferential3f(mi.Ray3f(o, d, time, wavelengths))
+        ray.maxt = maxt
+        ray.o_x = ray.o_y = o
+        ray.d_x = to_world @ dr.normalize(mi.Vector3f(self._focus_point(q_x) - aperture_p))
+        ray.d_y = to_world @ dr.normalize(mi.Vector3f(self._focus_point(q_y) - aperture_p))
+        ray.has_differentials = True
+        return ray, weight
+
+    def bbox(self) -> mi.ScalarBoundingBox3f:
+        return mi.ScalarBoundingBox3f(origin_of(self.world_transform()))
+
+    def to_string(self) -> str:
+        return (f"ConicCamera[\n  lens = {self.lens},\n  x_fov = {self.x_fov},\n"
+                f"  aperture = {self.aperture},\n  focus_distance = {self.focus_distance},\n"
+                f"  near_clip = {self.near_clip},\n  far_clip = {self.far_clip},\n"
+                f"  pixel_offset = {self.film_map.offset},\n  film = {self.film()},\n"
+                f"  to_world = {self.world_transform()}\n]")
+
+
+mi.register_sensor("conic", lambda props, cls=ConicCamera: cls(props))
