@@ -16,13 +16,13 @@ Modules, one concept each: ``syntax`` (comments, sections, keys with lines), ``c
 (zone method), ``perlin``, ``materials`` (colours, bump), ``cubemap``, ``world`` (objects),
 ``shading`` (lights), ``transport`` (paths, Fresnel, roulette), ``quirks`` (strict vs clean),
 ``rng`` (random streams and draw order), ``tonemap`` (exposure, tone curve, sRGB, bytes),
-``render`` (driver, tiles, workers), ``outputs``.
+``driver`` (render: tiles, workers, result), ``outputs``.
 """
 
 from .errors import SceneError
 from .outputs import output_paths, write_outputs
 from .quirks import CLEAN, STRICT, Quirks
-from .render import RenderResult, render
+from .driver import RenderResult, render
 from .scene import Scene, parse_scene
 
 __all__ = ["SceneError", "Scene", "parse_scene", "render", "RenderResult", "Quirks", "STRICT",

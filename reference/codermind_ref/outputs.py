@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from . import exr, png, tga
-from .render import RenderResult
+from .driver import RenderResult
 
 
 def output_paths(base: str | os.PathLike) -> dict[str, Path]:
