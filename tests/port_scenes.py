@@ -30,6 +30,11 @@ def write_cubemap(folder: Path, colours: dict[str, tuple[int, int, int]] | None 
     return keys
 
 
+def uniform_cubemap(folder: Path, rgb: tuple[int, int, int]) -> str:
+    """Six faces of one colour; returns the Scene keys."""
+    return write_cubemap(folder, {face: rgb for face in FACES})
+
+
 def write_scene(folder: Path, version: str, scene: str, objects: str, name: str = "scene.txt") -> Path:
     major, minor = version.split(".")
     path = folder / name

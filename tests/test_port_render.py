@@ -10,7 +10,7 @@ import pytest
 import codermind_ref as ref
 from codermind_ref import driver, perlin, png, rng, tga, tonemap, transport
 from codermind_ref.world import World
-from port_scenes import write_cubemap, write_scene
+from port_scenes import uniform_cubemap, write_cubemap, write_scene
 
 
 def srgb(v):
@@ -207,8 +207,7 @@ def test_cubemap_faces_and_texel_fetch(tmp_path):
 
 
 def test_cubemap_radiance_transforms(tmp_path):
-    keys = write_cubemap(tmp_path, {f: (128, 64, 255) for f in
-                                    ("Up", "Down", "Right", "Left", "Forward", "Backward")})
+    keys = uniform_cubemap(tmp_path, (128, 64, 255))
     scene = ref.parse_scene(write_scene(
         tmp_path, "1.3", "Perspective.Type = conic;\nCubemap.sRGB = true;\nCubemap.Exposed = true;\n"
         "Cubemap.Exposure = 2;\n" + keys, ""))
@@ -218,8 +217,7 @@ def test_cubemap_radiance_transforms(tmp_path):
 
 
 def test_page4_auto_exposure_uniform_sky(tmp_path):
-    keys = write_cubemap(tmp_path, {f: (100, 150, 200) for f in
-                                    ("Up", "Down", "Right", "Left", "Forward", "Backward")})
+    keys = uniform_cubemap(tmp_path, (100, 150, 200))
     scene = ref.parse_scene(write_scene(
         tmp_path, "1.3", "Image.Width = 32;\nImage.Height = 24;\nPerspective.Type = conic;\n"
         "Tonemap.Midpoint = 0.6;\nPerspective.Dispersion = 3;\n" + keys, ""))

@@ -15,18 +15,32 @@ NAME = "reference"
 HELP = "render a tutorial scene.txt with the standalone port (TGA, PNG, EXR)"
 
 
+def _positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    value = int(text)
+    if not 0 <= value < 2 ** 63:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {value}")
+    return value
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.txt", help="tutorial scene file")
     p.add_argument("-o", "--output", metavar="OUT",
                    help="output path without extension (default: the scene's name here)")
     p.add_argument("--mode", choices=("strict", "clean"), default="strict",
                    help="strict: the original programs (default); clean: quirks removed")
-    p.add_argument("--seed", type=int, default=0, help="random seed (page 4; default 0)")
-    p.add_argument("--complexity", type=int, metavar="N",
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (page 4; default 0)")
+    p.add_argument("--complexity", type=_positive, metavar="N",
                    help="rays per sub-sample (page 4; default: the scene's Complexity)")
     p.add_argument("--exposure", type=float, metavar="E",
                    help="fixed exposure instead of the page-4 auto exposure (page 2: default 1)")
-    p.add_argument("--workers", type=int, metavar="N",
+    p.add_argument("--workers", type=_positive, metavar="N",
                    help="worker processes (default: both cores for large renders); the "
                         "image does not depend on it")
 
@@ -53,12 +67,6 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import CodermindError
     import codermind_ref as ref
 
-    for name in ("complexity", "workers"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise CodermindError(f"--{name}: must be >= 1, got {value}")
-    if not 0 <= args.seed < 2 ** 63:
-        raise CodermindError(f"--seed: must be in [0, 2^63), got {args.seed}")
     scene_path = Path(args.scene)
     try:
         scene = ref.parse_scene(scene_path)
