@@ -19,7 +19,7 @@ def srgb(v):
 
 def test_page1_strict_is_byte_identical_to_expected_png(tutorial_dir):
     scene = ref.parse_scene(tutorial_dir / "page1" / "scene.txt")
-    result = ref.render(scene, "strict")
+    result = ref.render(scene, "strict", workers=1)
     expected = png.decode((tutorial_dir / "page1" / "expected.png").read_bytes())
     assert result.rgb8.shape == expected.shape == (480, 640, 3)
     assert np.array_equal(result.rgb8, expected)
@@ -29,7 +29,7 @@ def test_page1_strict_is_byte_identical_to_expected_png(tutorial_dir):
     assert data[:18] == bytes([0, 0, 2] + [0] * 9 + [128, 2, 224, 1, 24, 0])
     assert data[18:21] == bytes(expected[-1, 0, ::-1])          # B, G, R of pixel (0, 0)
     # page 1 has none of the quirks clean removes
-    assert np.array_equal(ref.render(scene, "clean").rgb8, expected)
+    assert np.array_equal(ref.render(scene, "clean", workers=1).rgb8, expected)
 
 
 def test_page2_and_page4_render_without_warnings(tutorial_dir):
@@ -372,3 +372,41 @@ def test_complexity_gives_mean_and_variance(tutorial_dir):
     assert (many.variance >= 0).all() and (many.variance > 0).any()
     # repeat 0 of the Complexity-8 render is the Complexity-1 render: both use stream (y, 0)
     assert not np.array_equal(many.linear, one.linear)
+
+
+def test_clean_and_strict_expected_values_through_a_glass_sphere(tmp_path):
+    # Density 1 (R = 0 at every angle), Refraction 0.5, Reflection 0: at the front hit half the
+    # paths shade (Lambert + Blinn), half refract straight through (coef 0.5); at the back hit,
+    # from inside, clean always refracts out (coef 0.25) to the sky, strict re-draws in place
+    # and ends at the segment limit with the sky at coef 0.5 if 9 draws in a row fail
+    keys = uniform_cubemap(tmp_path, (60, 120, 240))
+    scene = ref.parse_scene(write_scene(
+        tmp_path, "1.3", "Image.Width = 64;\nImage.Height = 48;\nPerspective.Type = conic;\n"
+        "Perspective.FOV = 90;\nNumberOfMaterials = 1;\nNumberOfSpheres = 1;\nNumberOfLights = 1;\n"
+        + keys, "Material0 { Diffuse = 0.6, 0.4, 0.2; Specular = 0.5; Power = 20; Density = 1;"
+        " Refraction = 0.5; }\nSphere0 { Center = 32, 24, 100; Size = 30; }\n"
+        "Light0 { Position = 32, 80, 0; Intensity = 2; }\n"))
+    sky = np.array([60, 120, 240]) / 255
+    direct = _lone_sphere_colour(np.array([32.0, 24, 70]), np.array([32.0, 24, 100]), 30.0,
+                                 np.array([32.0, 80, 0]), np.full(3, 2.0),
+                                 np.array([0.6, 0.4, 0.2]), np.full(3, 0.5), 20.0,
+                                 np.array([0.0, 0.0, 1.0]))
+    through = {"clean": 0.25 * sky, "strict": (0.25 * (1 - 2.0 ** -9) + 0.5 * 2.0 ** -9) * sky}
+    n = 4096
+    for mode, behind in through.items():
+        result = ref.render(scene, mode, seed=11, complexity=n, exposure=1.0, rect=(32, 24, 33, 25))
+        mean, var = result.linear[1, 0], result.variance[1, 0]     # sub-sample (32, 24): on axis
+        expected = 0.5 * direct + 0.5 * behind
+        assert np.all(np.abs(mean - expected) < 4 * np.sqrt(var)), mode
+        # two outcomes with probability 1/2 each: variance of the mean (direct - behind)^2 / 4n
+        assert var == pytest.approx((direct - behind) ** 2 / (4 * n), rel=0.05)
+
+
+def test_row_streams_are_one_sequence_per_row():
+    whole = rng.row_draws(3, 17, 0, 5, 8)
+    assert whole.shape == (5, 8, 2, 2, rng.DRAWS)
+    assert np.array_equal(np.concatenate([rng.row_draws(3, 17, c, c + 1, 8) for c in range(5)]),
+                          whole)
+    assert np.array_equal(rng.row_draws(3, 17, 2, 4, 8), whole[2:4])
+    assert not np.array_equal(rng.row_draws(3, 18, 0, 5, 8), whole)
+    assert not np.array_equal(rng.row_draws(4, 17, 0, 5, 8), whole)

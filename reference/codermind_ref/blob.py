@@ -78,28 +78,32 @@ def hit(o: np.ndarray, d: np.ndarray, t: np.ndarray, centers: np.ndarray, radius
     if sel.size == 0:
         return out, hits
     b, cc, tmax = b[:, sel], cc[:, sel], t[sel]
-    n = sel.size
-    disc = (b * b - cc)[:, :, None] + RATIO[:ZONES] * r2                    # (3, n, 9)
+    n, width = sel.size, 6 * ZONES
+    bt = b.T[:, :, None]                                                   # (n, 3, 1)
     with np.errstate(invalid="ignore"):
-        root = np.sqrt(disc)                        # NaN for a missed zone sphere: sorts last
+        root = np.sqrt(bt * bt - cc.T[:, :, None] + RATIO[:ZONES] * r2)   # (n, 3, 9)
+    # NaN for a missed zone sphere: no crossing (NaN sorts last)
     events = np.empty((n, 3, 2, ZONES))
-    events[:, :, 0] = (b[:, :, None] - root).transpose(1, 0, 2)
-    events[:, :, 1] = (b[:, :, None] + root).transpose(1, 0, 2)
-    events = events.reshape(n, 6 * ZONES)
+    np.subtract(bt, root, out=events[:, :, 0])
+    np.add(bt, root, out=events[:, :, 1])
+    events = events.reshape(n, width)
     order = np.argsort(events, axis=1)
     # After the last real crossing come the NaN ones, whose steps make the code meaningless
     # (each digit stays within -9..9, so indexing stays in range); their intervals end at NaN
-    # and are dropped below.
-    code = np.cumsum(_STEP[order], axis=1, dtype=np.int16)[:, :-1]
-    ray, k = np.nonzero(_BOUND_OF_CODE[code] >= 10)          # intervals with bound >= 1
-    if ray.size == 0:
+    # and are dropped below. Column k holds the code of the interval from crossing k to k + 1.
+    code = np.cumsum(_STEP[order], axis=1, dtype=np.int16)
+    valid = _BOUND_OF_CODE[code] >= 10                                    # bound >= 1
+    valid[:, -1] = False
+    idx = np.flatnonzero(valid)
+    if idx.size == 0:
         return out, hits
-    rows = ray * (6 * ZONES)
+    ray = idx // width
+    order = order.reshape(-1)
     flat = events.reshape(-1)
-    lo, hi = flat[rows + order[ray, k]], flat[rows + order[ray, k + 1]]
+    lo, hi = flat[ray * width + order[idx]], flat[ray * width + order[idx + 1]]
     tm = tmax[ray]
     live = (lo < tm) & (hi > EPSILON) & (hi < np.inf)     # hi is NaN past the last crossing
-    ray, lo, hi, tm, c = ray[live], lo[live], hi[live], tm[live], code[ray[live], k[live]]
+    ray, lo, hi, tm, c = ray[live], lo[live], hi[live], tm[live], code.reshape(-1)[idx[live]]
     # the interval's field A t^2 + B t + C from each source's zone line SLOPE x + INTERCEPT,
     # x = (t^2 - 2 b t + cc) / R^2
     qa = np.zeros(ray.size)

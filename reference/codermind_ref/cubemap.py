@@ -13,6 +13,17 @@ import numpy as np
 from .scene import FACES, Cubemap
 
 
+# spec table 2.11 with a, b, c = d.x, d.y, d.z and the dominant component as denominator:
+# x faces: u = 1 - (c/a + 1)/2, v = (b/a + 1)/2 (-x: 1 - that); y faces: u = (a/b + 1)/2
+# (-y: 1 - that), v = 1 - (c/b + 1)/2 (-y: without 1 -); z faces: u = (a/c + 1)/2,
+# v = (b/c + 1)/2 (-z: 1 - that)
+_FACE_OF_AXIS = np.array([1, 0, 2])            # axis x -> faces 2, 3; y -> 0, 1; z -> 4, 5
+_U_OF_AXIS = np.array([2, 0, 0])
+_V_OF_AXIS = np.array([1, 2, 1])
+_FLIP_U = np.array([False, True, True, True, False, False])
+_FLIP_V = np.array([True, False, False, True, False, True])
+
+
 class Environment:
     """The cube map of a scene, ready for vectorized lookups (black if no faces)."""
 
@@ -30,28 +41,19 @@ class Environment:
         n = d.shape[1]
         if self.texels is None or n == 0:
             return np.zeros((3, n))
-        a, b, c = d
-        ax, ay, az = np.abs(a), np.abs(b), np.abs(c)
+        ax, ay, az = np.abs(d)
         use_x = (ax >= ay) & (ax >= az)
-        use_y = ~use_x & (ay >= ax) & (ay >= az)
-        use_z = ~use_x & ~use_y
+        axis = np.where(use_x, 0, np.where(ay >= az, 1, 2))
+        flat, ray = d.reshape(-1), np.arange(n)
+        den = flat[axis * n + ray]
+        face = 2 * _FACE_OF_AXIS[axis] + (den < 0)      # FACES order: +y -y +x -x +z -z
         with np.errstate(divide="ignore", invalid="ignore"):
-            # u and v of spec table 2.11, then the face index in FACES order (+y -y +x -x +z -z)
-            qx_c, qx_b = (c / a + 1.0) * 0.5, (b / a + 1.0) * 0.5
-            qy_a, qy_c = (a / b + 1.0) * 0.5, (c / b + 1.0) * 0.5
-            qz_a, qz_b = (a / c + 1.0) * 0.5, (b / c + 1.0) * 0.5
-        pos_x, pos_y, pos_z = a > 0, b > 0, c > 0
-        u = np.where(use_x, 1.0 - qx_c,
-                     np.where(use_y, np.where(pos_y, qy_a, 1.0 - qy_a), qz_a))
-        v = np.where(use_x, np.where(pos_x, qx_b, 1.0 - qx_b),
-                     np.where(use_y, np.where(pos_y, 1.0 - qy_c, qy_c),
-                              np.where(pos_z, qz_b, 1.0 - qz_b)))
-        face = np.where(use_x, np.where(pos_x, 2, 3),
-                        np.where(use_y, np.where(pos_y, 0, 1), np.where(pos_z, 4, 5)))
-        # a zero component on the dominant axis (only d = 0) finds no face: black
-        black = np.where(use_x, a == 0, np.where(use_y, b == 0, c == 0))
+            qu = (flat[_U_OF_AXIS[axis] * n + ray] / den + 1.0) * 0.5
+            qv = (flat[_V_OF_AXIS[axis] * n + ray] / den + 1.0) * 0.5
+        u = np.where(_FLIP_U[face], 1.0 - qu, qu)
+        v = np.where(_FLIP_V[face], 1.0 - qv, qv)
         colour = self._fetch(face, np.abs(u), np.abs(v))
-        colour[:, black] = 0.0
+        colour[:, den == 0] = 0.0       # only d = 0 has no face: black
         return self._radiance(colour)
 
     def _fetch(self, face, u, v) -> np.ndarray:

@@ -3,12 +3,12 @@
 ``render(scene, mode="strict", seed=0, ...) -> RenderResult``; see :func:`render`.
 Work is split into tiles of image rows (and, at high Complexity, of repeats) whose layout
 depends only on the image, so results are identical for any worker count; tiles run in
-forked worker processes when ``workers > 1``.
+forked worker processes when ``workers > 1`` (by default for renders of more than 200 000
+rays, one per available core, at most 8).
 """
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import os
 import time
@@ -82,8 +82,10 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     exposure: a fixed E instead of the page-4 auto exposure (or of page 2's 1), so that two
     renderers can be tone-mapped identically. rect: (x0, y0, x1, y1), a half-open pixel
     rectangle in tutorial coordinates (y up), stride: render every stride-th pixel of it --
-    pixel values equal the full frame's. workers: processes (default: both cores for large
-    renders). progress(done, total) is called as tiles finish.
+    pixel values equal the full frame's. workers: processes (default: one per available core,
+    at most 8, for renders of more than 200 000 rays; the result does not depend on it).
+    progress(done, total) is called as tiles finish. Pages 1 and 2 ignore complexity, page 1
+    also exposure.
     """
     t0 = time.perf_counter()
     quirks = resolve(mode)
@@ -107,7 +109,7 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     tiles = job.tiles()
     sums = np.zeros((ys.size, xs.size) + job.sample_shape + (3,))
     squares = np.zeros_like(sums) if c > 1 else None
-    n_workers = workers or (min(2, os.cpu_count() or 1) if job.rays > 200_000 else 1)
+    n_workers = workers or (min(8, len(os.sched_getaffinity(0))) if job.rays > 200_000 else 1)
     for done, (tile, (s, q)) in enumerate(zip(tiles, _run(job, tiles, n_workers)), start=1):
         rows = slice(tile[0], tile[1])
         sums[rows] += s
@@ -119,7 +121,7 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     if scene.page == 4 and c > 1:
         var = np.maximum(squares - sums * sums / c, 0.0) / (c - 1) / c
     else:
-        var = np.full_like(mean, np.nan if scene.page == 4 else 0.0)
+        var = np.full(mean.shape, np.nan if scene.page == 4 else 0.0, dtype=np.float32)
     return _finish(scene, quirks, int(seed), c, e, xs, ys, mean, var, time.perf_counter() - t0)
 
 
@@ -172,8 +174,8 @@ class _Job:
         shape = (ys.size, reps, xs.size, 2, 2)
         fx = np.broadcast_to(xs[None, None, :, None, None] + half[:, None], shape)
         fy = np.broadcast_to(ys[:, None, None, None, None] + half, shape)
-        draws = np.stack([rng.row_draws(self.seed, int(y), c, scene.width)[xs]
-                          for y in ys for c in range(c0, c1)]).reshape(-1, rng.DRAWS)
+        draws = np.stack([rng.row_draws(self.seed, int(y), c0, c1, scene.width)[:, xs]
+                          for y in ys]).reshape(-1, rng.DRAWS)
         o, d = camera.rays(scene, fx.ravel(), fy.ravel(), draws[:, 0], draws[:, 1])
         colour = roulette(self.world, o, d, draws, self.quirks)
         colour = np.moveaxis(colour.reshape((3,) + shape), 0, -1)
@@ -188,7 +190,8 @@ def _trace_current(tile):
 
 
 def _run(job: _Job, tiles, workers: int):
-    if workers <= 1 or len(tiles) < 2:
+    # forked workers inherit the job (no pickling); without fork, one process does it all
+    if workers <= 1 or len(tiles) < 2 or "fork" not in multiprocessing.get_all_start_methods():
         yield from map(job.trace, tiles)
         return
     global _CURRENT

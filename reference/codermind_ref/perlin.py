@@ -26,7 +26,7 @@ PERMUTATION = (
     192, 214, 31, 181, 199, 106, 157, 184, 84, 204, 176, 115, 121, 50, 45, 127, 4, 150, 254,
     138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141, 128, 195, 78, 66, 215, 61, 156, 180,
 )
-_P = np.array(PERMUTATION * 2, dtype=np.intp)
+_P = np.array(PERMUTATION * 2, dtype=np.int32)
 
 # grad(h, x, y, z) = (+-u) + (+-v) written as gx*x + gy*y + gz*z with one of gx, gy, gz = 0:
 # u = x if h < 8 else y; v = y if h < 4 else (x if h in (12, 14) else z); bit 0 negates u,
@@ -39,8 +39,6 @@ for _h in range(16):
     _G[_v, _h] += -1.0 if _h & 2 else 1.0
 # indexed directly by a permutation value (0..255): the low 4 bits select the gradient
 _GX, _GY, _GZ = (np.ascontiguousarray(np.tile(_G[i], 16)) for i in range(3))
-_OFFSETS = np.array([[0, 1, 0, 1, 0, 1, 0, 1], [0, 0, 1, 1, 0, 0, 1, 1],
-                     [0, 0, 0, 0, 1, 1, 1, 1]], dtype=float)[:, :, None]
 
 
 def _fade(t: np.ndarray) -> np.ndarray:
@@ -51,23 +49,33 @@ def noise(x, y, z) -> np.ndarray:
     """Improved noise at arrays (or scalars) x, y, z; same shape as their broadcast."""
     x, y, z = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (x, y, z)))
     fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
-    X = fx.astype(np.intp) & 255
-    Y = fy.astype(np.intp) & 255
-    Z = fz.astype(np.intp) & 255
+    X = fx.astype(np.int32) & 255
+    Y = fy.astype(np.int32) & 255
+    Z = fz.astype(np.int32) & 255
     x, y, z = x - fx, y - fy, z - fz
+    x1, y1, z1 = x - 1, y - 1, z - 1
     u, v, w = _fade(x), _fade(y), _fade(z)
     P = _P
     A = P[X] + Y
     B = P[X + 1] + Y
     AA, AB, BA, BB = P[A] + Z, P[A + 1] + Z, P[B] + Z, P[B + 1] + Z
-    # corners in the order 000 100 010 110 001 101 011 111 (x fastest)
-    h = P[np.stack((AA, BA, AB, BB, AA + 1, BA + 1, AB + 1, BB + 1))]
-    ox, oy, oz = _OFFSETS.reshape((3, 8) + (1,) * x.ndim)
-    g = _GX[h] * (x - ox) + _GY[h] * (y - oy) + _GZ[h] * (z - oz)
-    # lerp(t, a, b) = a + t * (b - a), innermost along x
-    gx = g[0::2] + u * (g[1::2] - g[0::2])              # 4 edges along x
-    gy = gx[0::2] + v * (gx[1::2] - gx[0::2])           # 2 faces
-    return gy[0] + w * (gy[1] - gy[0])
+
+    def grad(corner, a, b, c):
+        h = P[corner]
+        return _GX[h] * a + _GY[h] * b + _GZ[h] * c
+
+    # lerp(t, lo, hi) = lo + t * (hi - lo), as Perlin nests them (x innermost)
+    e00 = grad(AA, x, y, z)
+    e00 += u * (grad(BA, x1, y, z) - e00)
+    e10 = grad(AB, x, y1, z)
+    e10 += u * (grad(BB, x1, y1, z) - e10)
+    e00 += v * (e10 - e00)
+    e01 = grad(AA + 1, x, y, z1)
+    e01 += u * (grad(BA + 1, x1, y, z1) - e01)
+    e11 = grad(AB + 1, x, y1, z1)
+    e11 += u * (grad(BB + 1, x1, y1, z1) - e11)
+    e01 += v * (e11 - e01)
+    return e00 + w * (e01 - e00)
 
 
 def turbulence(px, py, pz) -> np.ndarray:
