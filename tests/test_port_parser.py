@@ -205,3 +205,21 @@ def test_cubemap_face_errors(tmp_path, face, kwargs, message):
         parse_scene(path)
     assert e.value.line == 8 and "Cubemap.Left" in e.value.message   # the Left key's line
     assert message in e.value.message
+
+
+def test_nested_block_is_ignored_with_a_warning(tmp_path):
+    body = ("Material0 {\n Diffuse = 0.5;\n Inner { Diffuse = 1; }\n Reflection = 0.25;\n}\n"
+            "Sphere0 { }\nLight0 { }\n")
+    scene = parse_scene(scene_file(tmp_path, body, scene_keys=COUNTS))
+    assert scene.materials[0].diffuse == (0.5, 0.5, 0.5) and scene.materials[0].reflection == 0.25
+    assert scene.warnings == [f"{tmp_path / 's.txt'}:10: nested block 'Inner' in section "
+                              "'Material0' is not supported (the original mangles its keys); ignored"]
+
+
+def test_material_types(tmp_path):
+    body = "".join(f"Material{i} {{ Type = {t}; }}\n"
+                   for i, t in enumerate(("turbulence", "marble", "noise", "Marble", "gouraud")))
+    scene = parse_scene(scene_file(tmp_path, body, version="1.3",
+                                   scene_keys="Perspective.Type = conic;\nNumberOfMaterials = 5;\n"))
+    assert [m.type for m in scene.materials] == ["turbulence", "marble", "noise", "gouraud", "gouraud"]
+    assert scene.materials[3].type_text == "Marble"        # case-sensitive: unknown is gouraud
