@@ -34,7 +34,7 @@ ZONES = 9  # zone spheres 0..8 produce crossings; zone 9 is only the terminator
 
 
 def field(x: np.ndarray) -> np.ndarray:
-    """f(x) of one source (for tests and documentation): piecewise linear, 0 for x >= 10."""
+    """f(x) of one source: piecewise linear, 0 for x >= 10 (used by the cull)."""
     x = np.asarray(x, dtype=float)
     depth = np.searchsorted(-RATIO[:ZONES], -x, side="left")   # zone spheres with x < RATIO[k]
     return SLOPE[depth] * x + INTERCEPT[depth]

@@ -41,8 +41,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--exposure", type=float, metavar="E",
                    help="fixed exposure instead of the page-4 auto exposure (page 2: default 1)")
     p.add_argument("--workers", type=_positive, metavar="N",
-                   help="worker processes (default: both cores for large renders); the "
-                        "image does not depend on it")
+                   help="worker processes (default: one per core for large renders); "
+                        "the image does not depend on it")
 
 
 class _Progress:
@@ -79,7 +79,10 @@ def run(args: argparse.Namespace) -> int:
         base = base.with_suffix("")
     result = ref.render(scene, args.mode, args.seed, args.complexity, exposure=args.exposure,
                         workers=args.workers, progress=_Progress(scene_path.name))
-    paths = ref.write_outputs(result, base)
+    try:
+        paths = ref.write_outputs(result, base)
+    except OSError as e:
+        raise CodermindError(f"{e.filename or base}: cannot write: {e.strerror or e}") from None
     exposure = "" if result.exposure is None else f", exposure {result.exposure:.6g}"
     print(f"wrote {', '.join(str(p) for p in paths.values())} ({result.mode}, page "
           f"{scene.page}, seed {result.seed}, complexity {result.complexity}{exposure}, "
