@@ -1,0 +1,52 @@
+"""The four quirks of the original programs that ``clean`` mode removes (spec 2.6, 2.7).
+
+``strict`` keeps all of them; ``clean`` none. Each can be toggled alone (``Quirks(...)``),
+which is how ``benchmarks/quirk_table.py`` measures what each one changes.
+Everything else the original does is the model itself and stays in both modes: the off-centre
+square aperture and focus sphere, the tone curve applied per sub-sample before averaging, the
+probe-grid auto exposure, the lower-left 2x2 sub-sample grid, no light falloff.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Quirks:
+    shadow_squared: bool = True
+    """pages 2, 4: shadow rays test objects up to the SQUARED light distance, so objects
+    beyond the light cast shadows (clean: the true distance)."""
+    coef_squared: bool = True
+    """page 4: turbulence and marble get coef^2 in the Lambert term (clean: coef)."""
+    cubemap_at_limit: bool = True
+    """page 4: the cube map is added with the last direction when the 10-segment limit is
+    reached (or a zero normal stops the path), not only on a miss (clean: only on a miss)."""
+    inside_retrace: bool = True
+    """page 4: a 'diffuse' roulette draw inside an object re-traces the same segment with new
+    draws, each try consuming one of the 10 segments (clean: redraw among reflect/refract
+    with probabilities Rf/(Rf+Tr), Tr/(Rf+Tr) without consuming a segment; the path ends if
+    Rf + Tr = 0)."""
+
+    @property
+    def name(self) -> str:
+        if self == STRICT:
+            return "strict"
+        if self == CLEAN:
+            return "clean"
+        return "custom(" + ",".join(k for k, v in self.__dict__.items() if v) + ")"
+
+
+STRICT = Quirks()
+CLEAN = Quirks(False, False, False, False)
+
+
+def resolve(mode: "str | Quirks") -> Quirks:
+    """'strict', 'clean' or a Quirks instance."""
+    if isinstance(mode, Quirks):
+        return mode
+    if mode == "strict":
+        return STRICT
+    if mode == "clean":
+        return CLEAN
+    raise ValueError(f"mode must be 'strict', 'clean' or a Quirks instance, got {mode!r}")
