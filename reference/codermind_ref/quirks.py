@@ -21,7 +21,9 @@ class Quirks:
     """page 4: turbulence and marble get coef^2 in the Lambert term (clean: coef)."""
     cubemap_at_limit: bool = True
     """page 4: the cube map is added with the last direction when the 10-segment limit is
-    reached (or a zero normal stops the path), not only on a miss (clean: only on a miss)."""
+    reached (or a zero normal stops the path), whether that direction is blocked or not
+    (clean: the ray leaving the 10th segment is traced and adds the cube map only if it
+    escapes; a zero normal ends the path black)."""
     inside_retrace: bool = True
     """page 4: a 'diffuse' roulette draw inside an object re-traces the same segment with new
     draws, each try consuming one of the 10 segments (clean: redraw among reflect/refract

@@ -23,7 +23,10 @@ a hit toward the eye is
   max(n.H, 0)^Power I Specular (shadow rays up to the true light distance);
 * inside: (P_r * Reflection * L(reflected) + P_t * Refraction * L(refracted)) / (P_r + P_t),
   0 if Rf + Tr = 0;
-* a miss: cubemap(d); a path's contribution beyond its 10th segment is 0.
+* a miss: cubemap(d). After the 10th segment no hit is shaded any more, but the ray leaving
+  it is still traced and adds cubemap(d) if it escapes (the fix of the quirk that adds the
+  cube map there without tracing). This is what Mitsuba's ``path`` with ``max_depth`` 11
+  does: light sampling at the first 10 hits, emission seen by the 11th ray.
 
 Strict mode adds the quirks of :mod:`codermind_ref.quirks`.
 """
@@ -178,6 +181,10 @@ def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
         at_limit = np.flatnonzero(go_on & (level >= MAX_SEGMENTS))
         if quirks.cubemap_at_limit:
             add_env(at_limit, d[:, at_limit])
+        elif at_limit.size:     # clean: the last ray is traced; only an escape sees the sky
+            _, hit = world.intersect(p[:, at_limit], d[:, at_limit], np.full(at_limit.size, T_START))
+            escaped = at_limit[hit < 0]
+            add_env(escaped, d[:, escaped])
         keep = np.flatnonzero(go_on & (level < MAX_SEGMENTS))
         ids, o, d, coef, n1, level = ids[keep], p[:, keep], d[:, keep], coef[keep], n1[keep], level[keep]
     return colour
