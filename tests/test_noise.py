@@ -227,3 +227,38 @@ def test_scalar_variant(scalar):
         texture = mi.load_dict({"type": kind})
         assert texture.eval_1(si) == pytest.approx(float(reference[0]), abs=1e-4)
         assert np.allclose(np.array(texture.eval(si)), float(reference[0]), atol=1e-4)
+
+
+def test_overflowing_coordinates_give_zero_not_nan(llvm):
+    """A finite position times a finite frequency can exceed the float32 range; the noise
+    there is 0 (as for every coordinate beyond 2^23), never NaN (found by the perlin_float32
+    stability sweep)."""
+    mi = llvm
+    import drjit as dr
+    p = np.array([[1e30, -1e30, 3e38, 1e20], [1.0, 2.0, 3e38, -1e30], [0.25, 1e30, -3e38, 2.0]])
+    for spec in ({"type": "perlin", "frequency": 1e10}, {"type": "turbulence", "frequency": 1e10},
+                 {"type": "marble", "frequency": 1e10, "stripe_frequency": 1e10}):
+        texture = mi.load_dict(spec)
+        si = dr.zeros(mi.SurfaceInteraction3f, p.shape[1])
+        si.p = mi.Point3f(p.astype(np.float32))
+        value = texture.eval_1(si).numpy()
+        assert np.isfinite(value).all(), (spec["type"], value)
+    texture = mi.load_dict({"type": "perlin", "frequency": 1e10})
+    si = dr.zeros(mi.SurfaceInteraction3f, p.shape[1])
+    si.p = mi.Point3f(p.astype(np.float32))
+    assert (texture.eval_1(si).numpy() == 0).all()
+
+
+def test_marble_stays_in_its_colour_range_far_away(llvm):
+    """m = sin(phase) / 2 + 1/2 stays in [0, 1] where the float32 sine of the stripe phase
+    would not (Dr.Jit's sine leaves [-1, 1] from a phase of about 1.5e7)."""
+    mi = llvm
+    import drjit as dr
+    rng = np.random.default_rng(5)
+    texture = mi.load_dict({"type": "marble"})
+    for magnitude in (1e8, 1e9, 1e12, 1e30):
+        p = rng.uniform(1, 2, (3, 1000)) * magnitude
+        si = dr.zeros(mi.SurfaceInteraction3f, p.shape[1])
+        si.p = mi.Point3f(p.astype(np.float32))
+        m = texture.eval_1(si).numpy()
+        assert np.isfinite(m).all() and m.min() >= 0 and m.max() <= 1, magnitude

@@ -91,8 +91,15 @@ def _grad(code, x: mi.Float, y: mi.Float, z: mi.Float) -> mi.Float:
     return dr.fma(_coef(code, 0), x, dr.fma(_coef(code, 2), y, _coef(code, 4) * z))
 
 
+#: Coordinates are clamped to +-2^24: beyond 2^23 every float32 is an integer, where the noise
+#: is exactly 0 either way, and an infinite coordinate (a position times a frequency beyond
+#: the float32 range) would otherwise give inf - inf = NaN.
+_CLAMP = float(2 ** 24)
+
+
 def _cell(x: mi.Float):
     """Lattice index (mod 256), offsets to the two lattice planes, and the fade weight."""
+    x = dr.clip(x, -_CLAMP, _CLAMP)
     f = dr.floor(x)
     t = x - f
     return mi.UInt32(mi.Int32(f) & 255), t, t - 1.0, _fade(t)

@@ -6,6 +6,12 @@ import mitsuba as mi
 from ._solid import TurbulenceBase, positive_float
 
 
+#: The stripe phase is clamped to +-2^23: float32 has no fraction bits beyond, and Dr.Jit's
+#: float32 sine leaves [-1, 1] from about 1.5e7 and is infinite from about 1e9 (measured by
+#: the perlin_float32 stability sweep).
+PHASE_LIMIT = float(2 ** 23)
+
+
 class MarbleTexture(TurbulenceBase):
     r"""
     .. _texture-marble:
@@ -51,7 +57,9 @@ class MarbleTexture(TurbulenceBase):
         \qquad c = m\,\mathtt{color0} + (1 - m)\,\mathtt{color1}.
 
     The defaults are the tutorial's constants; with the default colours the texture
-    returns :math:`m`. :monosp:`mean()` takes :math:`m` to average 1/2 over space. As for
+    returns :math:`m`. The stripe phase is clamped to :math:`\pm 2^{23}`, beyond which float32
+    has no fractional bits (and the float32 sine leaves [-1, 1]), so :math:`m` stays in
+    [0, 1] at any position. :monosp:`mean()` takes :math:`m` to average 1/2 over space. As for
     :monosp:`turbulence`, the tutorial's double application of the path weight to marble
     surfaces is not reproduced (the :monosp:`tutorial` BSDF applies it once).
 
@@ -73,7 +81,8 @@ class MarbleTexture(TurbulenceBase):
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         t = self.turbulence(p)
-        return dr.fma(0.5, dr.sin(dr.fma(p.x + p.y, self.stripe_frequency, t)), 0.5)
+        phase = dr.clip(dr.fma(p.x + p.y, self.stripe_frequency, t), -PHASE_LIMIT, PHASE_LIMIT)
+        return dr.fma(0.5, dr.sin(phase), 0.5)
 
     def mean_weight(self) -> float:
         return 0.5
