@@ -362,6 +362,23 @@ def test_scalar_variant(scalar):
     assert bs.sampled_component == 2 and np.allclose(np.array(weight), 0.5)
 
 
+
+@pytest.mark.parametrize("density", [1.0, 0.5])
+def test_scalar_variant_at_tangent_incidence(scalar, density):
+    """wi exactly in the tangent plane with total internal reflection (cos_i = cos_t = 0):
+    R = 1, a mirror event; the Fresnel quotients are 0 / 0 there, which scalar variants
+    raise on (found by the fresnel stability sweep)."""
+    mi = scalar
+    bsdf = mi.load_dict(material(page=4, reflection=1.0, refraction=1.0, density=density))
+    si = mi.SurfaceInteraction3f()
+    si.wi = mi.Vector3f(1, 0, 0)
+    si.n = mi.Normal3f(0, 0, 1)
+    si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
+    ctx = mi.BSDFContext()
+    bs, weight = bsdf.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5))
+    assert bs.sampled_component == 2 and bs.pdf == 1.0 and np.allclose(np.array(weight), 1.0)
+    assert np.array(bsdf.eval(ctx, si, mi.Vector3f(0, 0, 1))).tolist() == [0, 0, 0]
+
 def test_page1_is_page2(llvm):
     """Page 1 has no Specular key; with specular 0 its material is page 2's."""
     mi = llvm

@@ -187,8 +187,11 @@ class TutorialBSDF(mi.BSDF):
         normal = cos_i >= 0.999
         tir = sin2_t > 0.9999                   # (only where not 'normal')
         cos_t = dr.select(normal, 1.0, dr.select(tir, 0.0, dr.safe_sqrt(1.0 - sin2_t)))
-        rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)
-        rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t)
+        # Both denominators are 0 only at tangent incidence under TIR (cos_i = cos_t = 0),
+        # where R = 1 is selected below; guarded because scalar variants raise on 0 / 0.
+        den_s, den_p = n1 * cos_i + n2 * cos_t, n2 * cos_i + n1 * cos_t
+        rs = (n1 * cos_i - n2 * cos_t) / dr.select(den_s > 0, den_s, 1.0)
+        rp = (n2 * cos_i - n1 * cos_t) / dr.select(den_p > 0, den_p, 1.0)
         r0 = dr.square((n1 - n2) / (n1 + n2))
         r = dr.select(normal, r0, dr.select(tir, 1.0, 0.5 * (dr.square(rs) + dr.square(rp))))
         return r, cos_t, eta
