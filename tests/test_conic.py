@@ -211,12 +211,34 @@ def test_blur_of_a_point_matches_the_thin_lens_formula(llvm, lens):
     ({"pixel_offset_x": 0.5}, "'pixel_offset_y'"),
     ({"pixel_offset_x": 0.5, "pixel_offset_y": 1.5}, "'pixel_offset_y'"),
     ({"fov_axis": "z"}, "'fov_axis'"),
+    ({"aperture": float("inf")}, "'aperture'"),
+    ({"aperture": 1e39}, "'aperture'"),
+    ({"aperture": 1.0, "focus_distance": float("inf")}, "'focus_distance'"),
+    ({"aperture": 1.0, "far_clip": float("inf")}, "'focus_distance' must be finite"),
 ])
 def test_bad_parameters_give_one_clear_error(llvm, params, needle):
     mi = llvm
     with pytest.raises(RuntimeError) as e:
         mi.load_dict({"type": "conic", "fov": 45.0, **params})
     assert needle in str(e.value).strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("lens", ["disc", "tutorial"])
+@pytest.mark.parametrize("params", [{"far_clip": float("inf")}, {"far_clip": 1e30},
+                                    {"aperture": 1e30, "focus_distance": 10.0},
+                                    {"aperture": 1e-3, "focus_distance": 1e30}])
+def test_extreme_distances_give_finite_unit_rays(llvm, lens, params):
+    """A pinhole whose focus distance defaults to an infinite or huge far_clip, and huge
+    apertures or focus distances, used to give NaN or zero directions (float32 overflow of
+    the focus or aperture point; found by the thin_lens stability sweep)."""
+    mi = llvm
+    camera = mi.load_dict({"type": "conic", "lens": lens, "fov": 60.0, **params})
+    rng = np.random.default_rng(2)
+    ray, _ = camera.sample_ray(0.0, 0.5, mi.Point2f(rng.random((2, 100))),
+                               mi.Point2f(rng.random((2, 100))))
+    o, d = ray.o.numpy(), ray.d.numpy()
+    assert np.isfinite(o).all() and np.isfinite(d).all()
+    np.testing.assert_allclose(np.linalg.norm(d, axis=0), 1.0, rtol=1e-5)
 
 
 def test_scaled_to_world_is_rejected(llvm):

@@ -9,6 +9,9 @@ from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel
                                     to_world_matrix, x_fov)
 
 
+FLOAT32_MAX = 3.4028234663852886e38
+
+
 class ConicCamera(mi.Sensor):
     r"""
     .. _sensor-conic:
@@ -35,12 +38,12 @@ class ConicCamera(mi.Sensor):
 
      * - aperture
        - |float|
-       - Aperture size in world units, >= 0. ``disc``: the radius of the lens disc;
+       - Aperture size in world units, >= 0, finite. ``disc``: the radius of the lens disc;
          ``tutorial``: the side of the square aperture. 0 gives a pinhole (Default: 0).
 
      * - focus_distance
        - |float|
-       - Distance at which the image is sharp, >= 0 (> 0 if ``aperture`` > 0).
+       - Distance at which the image is sharp, >= 0 (> 0 and finite if ``aperture`` > 0).
          ``disc``: of the focal PLANE :math:`z` = focus_distance; ``tutorial``: of the
          focus SPHERE, measured along each un-jittered ray (Default: ``far_clip``).
 
@@ -131,13 +134,20 @@ class ConicCamera(mi.Sensor):
                              f"{self.near_clip:g} and {self.far_clip:g}")
         self.aperture = float(props.get("aperture", 0.0))
         self.focus_distance = float(props.get("focus_distance", self.far_clip))
-        if not self.aperture >= 0.0:
-            raise ValueError(f"conic: 'aperture' must be >= 0, got {self.aperture:g}")
+        if not 0.0 <= self.aperture <= FLOAT32_MAX:
+            raise ValueError(f"conic: 'aperture' must be >= 0 and finite (in float32), got "
+                             f"{self.aperture:g}")
         if not self.focus_distance >= 0.0:
             raise ValueError(f"conic: 'focus_distance' must be >= 0, got "
                              f"{self.focus_distance:g}")
         if self.aperture > 0.0 and self.focus_distance == 0.0:
             raise ValueError("conic: 'focus_distance' must be > 0 when 'aperture' > 0")
+        if self.aperture > 0.0 and not self.focus_distance <= FLOAT32_MAX:
+            default = "" if "focus_distance" in props else " (it defaults to 'far_clip')"
+            raise ValueError(f"conic: 'focus_distance' must be finite (in float32) when "
+                             f"'aperture' > 0, got {self.focus_distance:g}{default}")
+        # Rays are aimed on a scale where neither the aperture nor the focus point overflows.
+        self.lens_scale = max(self.aperture, self.focus_distance) if self.aperture > 0 else 1.0
         self.film_map = FilmMap(film, read_pixel_offset(props, "conic"), "conic")
         # Near-plane direction for a whole-film position s in [0, 1]^2:
         # ((1 - 2 s.x) tan_x, (1 - 2 s.y) tan_y, 1) (x left, y up).
@@ -151,24 +161,30 @@ class ConicCamera(mi.Sensor):
         xy = (1.0 - 2.0 * s) * self.tan_half
         return mi.Vector3f(xy.x, xy.y, 1.0)
 
-    def _aperture_point(self, sample3: mi.Point2f) -> mi.Point3f:
+    def _lens_offset(self, sample3: mi.Point2f) -> mi.Vector3f:
+        """Aperture point of an aperture of size 1 (the lens centre is the origin)."""
         if self.lens == "disc":
-            p = self.aperture * mi.warp.square_to_uniform_disk_concentric(sample3)
-            return mi.Point3f(p.x, p.y, 0.0)
+            p = mi.warp.square_to_uniform_disk_concentric(sample3)
+            return mi.Vector3f(p.x, p.y, 0.0)
         # Towards the image's right (camera -x) and top (camera +y).
-        return mi.Point3f(-self.aperture * sample3.x, self.aperture * sample3.y, 0.0)
+        return mi.Vector3f(-sample3.x, sample3.y, 0.0)
 
-    def _focus_point(self, q: mi.Vector3f) -> mi.Point3f:
-        if self.lens == "disc":
-            return mi.Point3f(q * self.focus_distance)
-        return mi.Point3f(dr.normalize(q) * self.focus_distance)
+    def _aim(self, offset: mi.Vector3f, q: mi.Vector3f) -> mi.Vector3f:
+        """Unit direction from the aperture point ``aperture * offset`` to the focus point
+        of near-plane direction ``q``. Both points are divided by ``lens_scale`` first, so
+        that no aperture or focus distance overflows float32; a pinhole just follows q."""
+        if self.aperture == 0.0:
+            return dr.normalize(q)
+        f = self.focus_distance / self.lens_scale
+        focus = q * f if self.lens == "disc" else dr.normalize(q) * f
+        return dr.normalize(focus - offset * (self.aperture / self.lens_scale))
 
-    def _ray(self, aperture_p: mi.Point3f, q: mi.Vector3f) -> tuple[mi.Point3f, mi.Vector3f, mi.Float]:
+    def _ray(self, offset: mi.Vector3f, q: mi.Vector3f) -> tuple[mi.Point3f, mi.Vector3f, mi.Float]:
         """World origin, world direction and length of the ray from the aperture point
-        through the focus point of near-plane direction ``q``, clipped."""
-        d = dr.normalize(mi.Vector3f(self._focus_point(q) - aperture_p))
+        ``aperture * offset`` through the focus point of near-plane direction ``q``, clipped."""
+        d = self._aim(offset, q)
         to_world = self.world_transform()
-        o = to_world @ aperture_p
+        o = to_world @ mi.Point3f(offset * self.aperture)
         d_world = to_world @ d
         if self.lens == "disc":
             inv_z = dr.rcp(d.z)
@@ -181,7 +197,7 @@ class ConicCamera(mi.Sensor):
                    sample3: mi.Point2f, active: mi.Bool = True) -> tuple[mi.Ray3f, mi.Spectrum]:
         wavelengths, weight = self.sample_wavelengths(
             dr.zeros(mi.SurfaceInteraction3f), sample1, active)
-        o, d, maxt = self._ray(self._aperture_point(sample3), self._local_direction(sample2))
+        o, d, maxt = self._ray(self._lens_offset(sample3), self._local_direction(sample2))
         ray = mi.Ray3f(o, d, time, wavelengths)
         ray.maxt = maxt
         return ray, weight
@@ -191,9 +207,9 @@ class ConicCamera(mi.Sensor):
                                 ) -> tuple[mi.RayDifferential3f, mi.Spectrum]:
         wavelengths, weight = self.sample_wavelengths(
             dr.zeros(mi.SurfaceInteraction3f), sample1, active)
-        aperture_p = self._aperture_point(sample3)
+        offset = self._lens_offset(sample3)
         q = self._local_direction(sample2)
-        o, d, maxt = self._ray(aperture_p, q)
+        o, d, maxt = self._ray(offset, q)
         # One pixel right (camera -x) and one pixel down (camera -y).
         to_world = self.world_transform()
         q_x = mi.Vector3f(q.x - self.pixel_step.x, q.y, q.z)
@@ -201,8 +217,8 @@ class ConicCamera(mi.Sensor):
         ray = mi.RayDifferential3f(mi.Ray3f(o, d, time, wavelengths))
         ray.maxt = maxt
         ray.o_x = ray.o_y = o
-        ray.d_x = to_world @ dr.normalize(mi.Vector3f(self._focus_point(q_x) - aperture_p))
-        ray.d_y = to_world @ dr.normalize(mi.Vector3f(self._focus_point(q_y) - aperture_p))
+        ray.d_x = to_world @ self._aim(offset, q_x)
+        ray.d_y = to_world @ self._aim(offset, q_y)
         ray.has_differentials = True
         return ray, weight
 
