@@ -33,3 +33,13 @@ def test_reference_bad_scene_is_one_line_exit_2(tmp_path):
 def test_reference_rejects_bad_options(tmp_path, tutorial_dir):
     out = run_cli("reference", tutorial_dir / "page1" / "scene.txt", "--complexity", "0")
     assert out.returncode == 2 and "--complexity" in out.stderr
+
+
+def test_reference_prints_warnings_found_while_rendering(tmp_path):
+    scene = tmp_path / "black.txt"
+    scene.write_text("Scene {\n Version.Major = 1;\n Version.Minor = 3;\n Image.Width = 16;\n"
+                     " Image.Height = 16;\n Perspective.Type = conic;\n}\n")
+    out = run_cli("reference", scene, "-o", tmp_path / "x")
+    assert out.returncode == 0, out.stderr
+    assert f"codermind: warning: {scene}:1: auto exposure: all 256 probe rays are black, so " \
+           f"E = -1" in out.stderr

@@ -410,3 +410,42 @@ def test_row_streams_are_one_sequence_per_row():
     assert np.array_equal(rng.row_draws(3, 17, 2, 4, 8), whole[2:4])
     assert not np.array_equal(rng.row_draws(3, 18, 0, 5, 8), whole)
     assert not np.array_equal(rng.row_draws(4, 17, 0, 5, 8), whole)
+
+
+def test_tone_curve_is_defined_for_huge_and_infinite_radiance():
+    """c^Power overflows for huge c: the curve's limit 1 there, not inf / inf = NaN (a black
+    pixel); every other value is unchanged (found by the tone_curve stability sweep)."""
+    tm = ref.scene.Tonemap(0.6, 3.0, 0.1)
+    c = np.array([0.0, 0.5, 1.0, 10.0, 1e30, 1e103, 1e200, 1.7e308, np.inf])
+    out = tonemap.curve(c, tm)
+    assert np.isfinite(out).all() and out[0] == 0 and (out[4:] == 1.0).all()
+    n = -math.log(1 - 0.6)
+    s = -(1 + 0.1 / n ** 2)
+    assert out[1] == 1.0 - math.exp(s * 0.5 ** 3 / (0.1 + 0.5 ** 2))   # bit for bit
+    assert tonemap.curve(np.array([1e31]), ref.scene.Tonemap(0.6, 10.0, 0.1))[0] == 1.0
+    assert np.isnan(tonemap.curve(np.array([np.nan]), tm)[0])
+
+
+def test_non_finite_radiance_and_black_probes_are_reported(tmp_path):
+    """A NaN radiance becomes byte 0 and black probes give E = -1 (spec 2.5), which tone-maps
+    whatever they missed from negative values: the render says so in its warnings."""
+    scene = ref.parse_scene(write_scene(
+        tmp_path, "1.3", "Image.Width = 24;\nImage.Height = 24;\nPerspective.Type = conic;\n"
+        "NumberOfMaterials = 1;\nNumberOfSpheres = 1;\nNumberOfLights = 1;\n",
+        "Material0 { Diffuse = 0.5; }\nSphere0 { Center = 12, 12, 60; Size = 40; }\n"
+        "Light0 { Position = 12, 12, -100; Intensity = nan; }\n"))
+    assert scene.warnings == []
+    with np.errstate(all="ignore"):
+        result = ref.render(scene, exposure=1.0)
+    assert np.isnan(result.linear[:20]).all() and (result.rgb8[:-10] == 0).all()
+    assert len(result.warnings) == 1 and "non-finite radiance" in result.warnings[0]
+    # the sphere between the 16 x 16 probes (every 2 pixels here) with no probe on it
+    scene = ref.parse_scene(write_scene(
+        tmp_path, "1.3", "Image.Width = 32;\nImage.Height = 32;\nPerspective.Type = conic;\n"
+        "NumberOfMaterials = 1;\nNumberOfSpheres = 1;\nNumberOfLights = 1;\n",
+        "Material0 { Diffuse = 0.5; }\nSphere0 { Center = 17, 17, 30; Size = 0.5; }\n"
+        "Light0 { Position = 17, 17, -100; Intensity = 1; }\n", name="probes.txt"))
+    result = ref.render(scene)
+    assert result.exposure == -1.0
+    assert len(result.warnings) == 1 and "E = -1" in result.warnings[0]
+    assert "probes.txt:1: auto exposure" in result.warnings[0]

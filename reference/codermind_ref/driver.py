@@ -100,8 +100,13 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
                          f"{scene.height} image")
     xs, ys = np.arange(x0, x1, stride), np.arange(y0, y1, stride)
     world = World(scene, np.float32 if scene.page < 4 else np.float64)
-    if scene.page == 4:
-        e = float(exposure) if exposure is not None else auto_exposure(scene, world, quirks, seed)
+    warnings = list(scene.warnings)
+    if scene.page == 4 and exposure is None:
+        lum = probe_luminance(scene, world, quirks, seed)
+        e = tonemap.exposure_from_probes(lum, scene.tonemap.midpoint)
+        warnings += _exposure_warnings(scene, lum, e)
+    elif scene.page == 4:
+        e = float(exposure)
     else:
         e = (1.0 if exposure is None else float(exposure)) if scene.page == 2 else None
 
@@ -122,18 +127,53 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
         var = np.maximum(squares - sums * sums / c, 0.0) / (c - 1) / c
     else:
         var = np.full(mean.shape, np.nan if scene.page == 4 else 0.0, dtype=np.float32)
-    return _finish(scene, quirks, int(seed), c, e, xs, ys, mean, var, time.perf_counter() - t0)
+    warnings += _radiance_warnings(scene, mean, xs, ys)
+    return _finish(scene, quirks, int(seed), c, e, xs, ys, mean, var, time.perf_counter() - t0,
+                   warnings)
 
 
-def auto_exposure(scene: Scene, world: World, quirks: Quirks, seed: int) -> float:
-    """Spec 2.5: 16x16 single-ray probes at (i s, j s), s = max(W, H)/16 (cell corners, past the
-    image top when W > H), pinhole (no lens jitter), traced with the normal path code."""
+def _radiance_warnings(scene: Scene, mean: np.ndarray, xs: np.ndarray, ys: np.ndarray
+                       ) -> list[str]:
+    """A NaN radiance becomes byte 0, a plausible black pixel: never without a word."""
+    bad = ~np.isfinite(mean).all(axis=-1)
+    if not bad.any():
+        return []
+    j, i = np.argwhere(bad)[0][:2]
+    return [f"{scene.path}: {int(bad.sum())} of {bad.size} samples have non-finite radiance "
+            f"(from inf or nan values in the scene; first at pixel {xs[i]}, {ys[j]}): NaN shows "
+            f"as black (byte 0), +inf as the brightest byte"]
+
+
+def probe_luminance(scene: Scene, world: World, quirks: Quirks, seed: int) -> np.ndarray:
+    """Spec 2.5: luminance of 16x16 single-ray probes at (i s, j s), s = max(W, H)/16 (cell
+    corners, past the image top when W > H), pinhole (no lens jitter), traced with the normal
+    path code."""
     step = max(scene.width, scene.height) / PROBES
     j, i = np.meshgrid(np.arange(PROBES), np.arange(PROBES), indexing="ij")
     o, d = camera.rays(scene, (i * step).ravel().astype(float), (j * step).ravel().astype(float),
                        probe=True)
     colour = roulette(world, o, d, rng.probe_draws(seed, PROBES).reshape(-1, rng.DRAWS), quirks)
-    return tonemap.exposure_from_probes(tonemap.luminance(colour), scene.tonemap.midpoint)
+    return tonemap.luminance(colour)
+
+
+def auto_exposure(scene: Scene, world: World, quirks: Quirks, seed: int) -> float:
+    """The page-4 auto exposure E (spec 2.5; -1 when every probe is black)."""
+    return tonemap.exposure_from_probes(probe_luminance(scene, world, quirks, seed),
+                                        scene.tonemap.midpoint)
+
+
+def _exposure_warnings(scene: Scene, lum: np.ndarray, e: float) -> list[str]:
+    """What a user must know when the auto exposure is not a plain positive number."""
+    where = f"{scene.path}:{scene.line_of('Scene')}"
+    if not np.isfinite(lum).all():
+        return [f"{where}: auto exposure: {int((~np.isfinite(lum)).sum())} of {lum.size} probe "
+                f"rays have non-finite luminance (from inf or nan values in the scene), so "
+                f"E = {e:g}; give a fixed exposure"]
+    if e == -1.0:
+        return [f"{where}: auto exposure: all {lum.size} probe rays are black, so E = -1 as in "
+                f"the original: anything lit that the probes missed is tone-mapped from negative "
+                f"values (wrong, wrapped bytes); give a fixed exposure"]
+    return []
 
 
 class _Job:
@@ -203,7 +243,7 @@ def _run(job: _Job, tiles, workers: int):
         _CURRENT = None
 
 
-def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds) -> RenderResult:
+def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds, warnings) -> RenderResult:
     h, w = ys.size, xs.size
     if scene.page < 4:   # float32 like the original (the sums of float32 values are exact)
         mean = mean.astype(np.float32)
@@ -228,4 +268,4 @@ def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds) -> RenderResu
             rgb8[low] = tonemap.strip(ys[low], xs)[:, :, None]
     return RenderResult(scene, quirks, seed, c, e, xs, ys, rgb8, tonemapped[::-1].copy(),
                         encoded[::-1].copy(), np.ascontiguousarray(linear, np.float32),
-                        np.ascontiguousarray(variance, np.float32), seconds, list(scene.warnings))
+                        np.ascontiguousarray(variance, np.float32), seconds, warnings)

@@ -19,13 +19,26 @@ LUMINANCE = (0.2126, 0.715160, 0.072169)
 
 
 def curve(c: np.ndarray, tm: Tonemap) -> np.ndarray:
-    """Page-4 tone curve of exposed radiance c (maps n = -ln(1 - Midpoint) to Midpoint)."""
+    """Page-4 tone curve of exposed radiance c (maps n = -ln(1 - Midpoint) to Midpoint).
+
+    Where c^P overflows (c >= 1e103 for P = 3, 1e31 for P = 10, and c = inf) the formula's
+    inf / inf would give NaN, a black pixel; there the same quotient is evaluated as
+    S c / (1 + Black / c^(P-1)), which tends to the curve's limit 1 (white). The spec does not
+    say in which precision the original computed the curve, so where it overflowed is unknown;
+    no tutorial scene comes near.
+    """
     if tm.black > 0:
         p = tm.power
         n = -math.log(1.0 - tm.midpoint)
         s = -(1.0 + tm.black / n ** (p - 1.0))
-        with np.errstate(invalid="ignore", over="ignore"):
-            return 1.0 - np.exp(s * c ** p / (tm.black + c ** (p - 1.0)))
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            out = 1.0 - np.exp(s * c ** p / (tm.black + c ** (p - 1.0)))
+            overflow = np.isnan(out) & (c > 0)
+            if np.any(overflow):
+                big = np.where(overflow, c, 1.0)
+                out = np.where(overflow, 1.0 - np.exp(s * big / (1.0 + tm.black / big ** (p - 1.0))),
+                               out)
+        return out
     return 1.0 - np.exp(-c)
 
 

@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         base = base.with_suffix("")
     result = ref.render(scene, args.mode, args.seed, args.complexity, exposure=args.exposure,
                         workers=args.workers, progress=_Progress(scene_path.name))
+    for warning in result.warnings[len(scene.warnings):]:     # found while rendering
+        print(f"codermind: warning: {warning}", file=sys.stderr)
     try:
         paths = ref.write_outputs(result, base)
     except OSError as e:
