@@ -1,0 +1,11 @@
+"""Comparison of the two sides (the Mitsuba plugins and the standalone port) and the
+stability sweeps that drive each method into the regime where it fails.
+
+Importing this package imports nothing heavy; each module imports what it needs:
+
+- :mod:`codermind_harness.stability`: the sweep registry, result records, the report
+  (markdown, JSON, one PNG per sweep) behind ``codermind stability``;
+- ``sweep_*`` modules: one function per sweep (see ``stability.SWEEPS``);
+- :mod:`codermind_harness.zone_exact`: the tutorial's blob field solved in 50-digit
+  decimal arithmetic, the exact reference of the zone-method sweeps.
+"""

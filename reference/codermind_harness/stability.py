@@ -1,0 +1,260 @@
+"""Stability sweeps: drive each method into the regime where it fails and measure where.
+
+Every sweep is a function ``sweep(quick: bool) -> SweepResult`` registered in :data:`SWEEPS`
+(its module is imported only when the sweep runs). A result holds the swept parameter's
+values, the measured quantity (as curves for the figure), the threshold found (a number and a
+sentence) and the sweep's *never-happen* checks: NaN or Inf in an output, a crash, a silent
+wrong answer where an error was due. :func:`run` runs sweeps (a sweep that raises becomes a
+failed check, the others still run); :func:`write_report` writes ``stability.md``,
+``stability.json`` and one ``NAME.png`` per sweep.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+#: name -> (module, function, one-line description), in report order.
+SWEEPS: dict[str, tuple[str, str, str]] = {
+    "perlin_float32": ("sweep_noise", "perlin_float32",
+                       "perlin texture (float32) vs noise coordinate magnitude"),
+    "blinnphong_exponent": ("sweep_bsdf", "blinnphong_exponent",
+                            "blinnphong sampling and evaluation vs exponent up to 1e6"),
+    "fresnel": ("sweep_bsdf", "fresnel",
+                "tutorial BSDF and port Fresnel at total internal reflection and eta = 1"),
+    "thin_lens": ("sweep_lens", "thin_lens", "conic camera at zero and huge aperture"),
+    "zone_grazing": ("sweep_zone", "zone_grazing", "port blob zone method vs grazing rays"),
+    "zone_scale": ("sweep_zone", "zone_scale", "port blob zone method vs scene scale"),
+    "tone_curve": ("sweep_tone", "tone_curve",
+                   "port tone curve at zero, huge and non-finite radiance"),
+    "auto_exposure": ("sweep_tone", "auto_exposure", "port auto exposure on black images"),
+}
+
+
+@dataclass
+class Check:
+    """A never-happen assertion: ``what`` must hold; ``detail`` says what was seen."""
+    what: str
+    passed: bool
+    detail: str = ""
+
+
+@dataclass
+class Series:
+    """One curve of the figure."""
+    label: str
+    x: list[float]
+    y: list[float]
+    style: str = "o-"
+    color: str | None = None        # matplotlib colour; None: the next of the cycle
+
+
+@dataclass
+class SweepResult:
+    name: str
+    title: str
+    parameter: str                  # what is swept (with its range)
+    measured: str                   # what is measured
+    threshold: str                  # the threshold found, in words, with its number
+    threshold_value: float | None   # the number (None: nothing failed in the range)
+    checks: list[Check] = field(default_factory=list)
+    series: list[Series] = field(default_factory=list)
+    xlabel: str = ""
+    ylabel: str = ""
+    xlog: bool = True
+    ylog: bool = True
+    lines: list[tuple[str, float, str]] = field(default_factory=list)  # ("x"|"y", value, label)
+    image: np.ndarray | None = None           # optional picture (H, W) or (H, W, 3)
+    image_title: str = ""
+    table: list[dict] = field(default_factory=list)   # per-value rows for the JSON
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    def check(self, what: str, passed, detail: str = "") -> bool:
+        self.checks.append(Check(what, bool(passed), detail))
+        return bool(passed)
+
+
+def finite_check(result: SweepResult, what: str, *arrays) -> bool:
+    """Record a check that every value of ``arrays`` is finite."""
+    bad = sum(int(np.size(a) - np.isfinite(np.asarray(a, dtype=np.float64)).sum()) for a in arrays)
+    total = sum(int(np.size(a)) for a in arrays)
+    return result.check(what, bad == 0, f"{bad} of {total} values non-finite")
+
+
+def first_crossing(xs, ys, limit: float) -> float | None:
+    """The first x whose y exceeds ``limit`` (None if none does); NaN counts as exceeding."""
+    for x, y in zip(xs, ys):
+        if not (y <= limit):
+            return float(x)
+    return None
+
+
+def run(names: list[str] | None = None, quick: bool = False,
+        progress: Callable[[str], None] | None = None) -> list[SweepResult]:
+    """Run the named sweeps (default: all) in registry order."""
+    from codermind.errors import CodermindError
+    names = list(SWEEPS) if not names else [n for n in SWEEPS if n in names]
+    results = []
+    for i, name in enumerate(names, start=1):
+        module, function, description = SWEEPS[name]
+        if progress:
+            progress(f"[{i}/{len(names)}] {name}: {description} ...")
+        t0 = time.perf_counter()
+        try:
+            sweep = getattr(importlib.import_module(f"codermind_harness.{module}"), function)
+            result = sweep(quick)
+        except CodermindError:  # the environment (e.g. no usable LLVM), not the method
+            raise
+        except Exception as e:  # a crash is a failed never-happen check, not the end of the run
+            result = SweepResult(name, description, "-", "-", "crashed", None)
+            tb = traceback.format_exception(type(e), e, e.__traceback__)
+            result.check("the sweep runs without an exception", False,
+                         f"{type(e).__name__}: {e}")
+            result.notes.append("".join(tb[-3:]).strip())
+        result.seconds = time.perf_counter() - t0
+        if progress:
+            state = "ok" if result.passed else "FAILED: " + "; ".join(
+                c.what for c in result.checks if not c.passed)
+            progress(f"[{i}/{len(names)}] {name}: {result.seconds:.1f} s, {state}")
+        results.append(result)
+    return results
+
+
+# -- report --------------------------------------------------------------------------------
+
+def _fmt(value: float | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.3g}"
+
+
+def _cell(text: str, limit: int = 300) -> str:
+    """Text fit for one markdown table cell: one line, pipes escaped, bounded length."""
+    text = " ".join(str(text).split()).replace("|", "\\|")
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def markdown_table(results: list[SweepResult]) -> str:
+    lines = ["| sweep | swept | measured | threshold | never-happen checks |",
+             "| --- | --- | --- | --- | --- |"]
+    for r in results:
+        failed = [c for c in r.checks if not c.passed]
+        state = (f"{len(r.checks)} pass" if not failed else
+                 f"**{len(failed)} of {len(r.checks)} FAIL**: " + "; ".join(
+                     f"{c.what} ({c.detail})" for c in failed))
+        lines.append(f"| `{r.name}` | {_cell(r.parameter)} | {_cell(r.measured)} | "
+                     f"{_cell(r.threshold, 600)} | {_cell(state, 600)} |")
+    return "\n".join(lines) + "\n"
+
+
+def markdown_report(results: list[SweepResult], command: str) -> str:
+    out = [f"# Stability sweeps\n\nGenerated by `{command}`.\n", markdown_table(results)]
+    for r in results:
+        out.append(f"\n## `{r.name}`: {r.title}\n\n![{r.name}]({r.name}.png)\n")
+        for c in r.checks:
+            out.append(f"- [{'x' if c.passed else ' '}] {c.what}: {c.detail}")
+        for note in r.notes:
+            out.append(f"- note: {note}")
+        out.append(f"- time: {r.seconds:.1f} s")
+    return "\n".join(out) + "\n"
+
+
+def _jsonable(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, (np.floating, np.integer)):
+        return _jsonable(value.item())
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return value
+
+
+def to_json(results: list[SweepResult]) -> str:
+    records = []
+    for r in results:
+        d = asdict(r)
+        d.pop("image")
+        d["passed"] = r.passed
+        records.append(d)
+    return json.dumps(_jsonable(records), indent=1)
+
+
+def plot(result: SweepResult, path: Path) -> None:
+    """The sweep's figure: its curves (and image, if any), written atomically as PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = 2 if result.image is not None else 1
+    fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 3.6), dpi=80, squeeze=False)
+    ax = axes[0, 0]
+    for s in result.series:
+        x, y = np.asarray(s.x, float), np.asarray(s.y, float)
+        if result.ylog:
+            y = np.where(y > 0, y, np.nan)
+        ax.plot(x, y, s.style, label=s.label, markersize=3, color=s.color)
+    for axis, value, label in result.lines:
+        (ax.axvline if axis == "x" else ax.axhline)(value, color="grey", ls="--", lw=0.8)
+        if label:
+            ax.annotate(label, xy=(value, 0.02) if axis == "x" else (0.02, value),
+                        xycoords=("data", "axes fraction") if axis == "x" else
+                        ("axes fraction", "data"), fontsize=7, color="grey",
+                        rotation=90 if axis == "x" else 0)
+    if result.xlog:
+        ax.set_xscale("log")
+    if result.ylog:
+        ax.set_yscale("log")
+    ax.set_xlabel(result.xlabel)
+    ax.set_ylabel(result.ylabel)
+    ax.set_title(result.title, fontsize=9)
+    if result.series:
+        ax.legend(fontsize=7)
+    ax.grid(True, which="both", lw=0.3)
+    if result.image is not None:
+        ax2 = axes[0, 1]
+        img = np.asarray(result.image, dtype=float)
+        shown = ax2.imshow(np.clip(img, 0, 1) if img.ndim == 3 else img,
+                           cmap=None if img.ndim == 3 else "viridis", interpolation="nearest")
+        if img.ndim == 2:
+            fig.colorbar(shown, ax=ax2, shrink=0.8)
+        ax2.set_title(result.image_title, fontsize=9)
+        ax2.set_xticks([])
+        ax2.set_yticks([])
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp")
+    with np.errstate(over="ignore"):       # log axes reaching 1e308
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def write_report(results: list[SweepResult], outdir: Path, command: str) -> dict[str, Path]:
+    """stability.md, stability.json and NAME.png per sweep in ``outdir`` (atomic writes)."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for r in results:
+        paths[r.name] = outdir / f"{r.name}.png"
+        plot(r, paths[r.name])
+    for name, text in (("stability.md", markdown_report(results, command)),
+                       ("stability.json", to_json(results))):
+        path = outdir / name
+        tmp = path.with_name(f".{name}.tmp")
+        tmp.write_text(text)
+        tmp.replace(path)
+        paths[name] = path
+    return paths
