@@ -342,6 +342,7 @@ def faces_dict(folder: Path, **override) -> dict:
     ("size", "face 'forward'"),
     ("exposure", "'exposure'"),
     ("mode", "'mode'"),
+    ("scale", "'scale'"),
 ])
 def test_bad_input_gives_one_clear_error(llvm, tutorial_dir, tmp_path, case, needle):
     mi = llvm
@@ -358,6 +359,8 @@ def test_bad_input_gives_one_clear_error(llvm, tutorial_dir, tmp_path, case, nee
         params["forward"] = str(tmp_path / "small.tga")
     elif case == "exposure":
         params["exposure"] = 0.0
+    elif case == "scale":
+        params["scale"] = float("nan")
     else:
         params["mode"] = "sky"
     with pytest.raises(RuntimeError) as e:

@@ -211,6 +211,9 @@ def test_textures_in_both_bsdfs_from_xml(llvm):
     ({"type": "turbulence", "octaves": 0}, "turbulence: 'octaves'"),
     ({"type": "marble", "octaves": 100}, "marble: 'octaves'"),
     ({"type": "marble", "stripe_frequency": float("inf")}, "marble: 'stripe_frequency'"),
+    ({"type": "turbulence", "color0": float("nan")}, "turbulence: 'color0'"),
+    ({"type": "marble", "color1": {"type": "rgb", "value": [0.0, float("inf"), 0.0]}},
+     "marble: 'color1'"),
 ])
 def test_bad_parameters(llvm, params, name):
     with pytest.raises(RuntimeError, match=name):

@@ -321,6 +321,8 @@ def test_turbulence_texture_as_diffuse(llvm):
     ({"page": 3}, "page"),
     ({"page": 2, "density": 1.0}, "density"),
     ({"diffuse": -0.5}, "diffuse"),
+    ({"diffuse": float("nan")}, "diffuse"),
+    ({"specular": float("inf")}, "specular"),
 ])
 def test_bad_parameters_name_the_parameter(llvm, params, name):
     mi = llvm

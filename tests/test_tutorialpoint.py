@@ -84,3 +84,13 @@ def test_position_and_to_world_are_exclusive(llvm):
     with pytest.raises(RuntimeError, match="only one of 'position' and 'to_world'"):
         llvm.load_dict({"type": "tutorialpoint", "position": [0, 0, 0],
                         "to_world": llvm.ScalarTransform4f().translate([1, 2, 3])})
+
+
+@pytest.mark.parametrize("params, name", [
+    ({"intensity": float("nan")}, "intensity"),
+    ({"intensity": {"type": "rgb", "value": [1.0, float("inf"), 1.0]}}, "intensity"),
+    ({"position": [0.0, float("nan"), 0.0]}, "position"),
+])
+def test_non_finite_parameters_are_refused(llvm, params, name):
+    with pytest.raises(RuntimeError, match=f"tutorialpoint: '{name}' must be finite"):
+        llvm.load_dict({"type": "tutorialpoint", **params})

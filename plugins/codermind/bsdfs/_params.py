@@ -39,11 +39,12 @@ def uniform_rgb(texture: mi.Texture) -> list[float] | None:
 
 def read_texture(props: mi.Properties, plugin: str, name: str, default: float,
                  unbounded: bool = False) -> mi.Texture:
-    """A texture parameter; a uniform one must be >= 0 in every channel. ``unbounded``
+    """A texture parameter; a uniform one must be finite and >= 0 in every channel. ``unbounded``
     accepts RGB values above 1 (Mitsuba rejects them for reflectances otherwise)."""
     texture = props.get_unbounded_texture(name, default) if unbounded else \
         props.get_texture(name, default)
     value = uniform_rgb(texture)
-    if value is not None and min(value) < 0:
-        raise ValueError(f"{plugin}: '{name}' must be >= 0 in every channel, got {value}")
+    if value is not None and not all(math.isfinite(v) and v >= 0 for v in value):
+        raise ValueError(f"{plugin}: '{name}' must be finite and >= 0 in every channel, "
+                         f"got {value}")
     return texture

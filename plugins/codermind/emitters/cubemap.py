@@ -143,6 +143,8 @@ class CubeMap(mi.Emitter):
         if not self.exposure > 0:
             raise ValueError(f"cubemap: 'exposure' must be > 0, got {self.exposure:g}")
         self.scale = float(props.get("scale", 1.0))
+        if not np.isfinite(self.scale):
+            raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
         linear = np.array(self.world_transform().matrix, dtype=np.float64).reshape(4, 4)[:3, :3]
         if not np.allclose(linear.T @ linear, np.eye(3), atol=1e-4):
             raise ValueError("cubemap: 'to_world' must be a rotation or reflection (no scale)")

@@ -1,5 +1,7 @@
 from __future__ import annotations  # Delayed parsing of type annotations
 
+import math
+
 import drjit as dr
 import mitsuba as mi
 
@@ -58,9 +60,17 @@ class TutorialPointLight(mi.Emitter):
             self.position = mi.Point3f(props.get("position"))
         else:
             self.position = mi.Point3f(self.world_transform().translation())
+        position = [float(dr.slice(c)) if dr.is_jit_v(mi.Float) else float(c)
+                    for c in self.position]
+        if not all(math.isfinite(c) for c in position):
+            name = "position" if "position" in props else "to_world"
+            raise ValueError(f"tutorialpoint: '{name}' must be finite, got {position}")
         self.intensity = props.get_emissive_texture("intensity", 1.0)
         if self.intensity.is_spatially_varying():
             raise ValueError("tutorialpoint: 'intensity' must not vary over space")
+        mean = self.intensity.mean()
+        if not math.isfinite(float(dr.slice(mean) if dr.is_jit_v(mean) else mean)):
+            raise ValueError("tutorialpoint: 'intensity' must be finite")
         self.falloff = bool(props.get("falloff", False))
         self.m_flags = mi.EmitterFlags.DeltaPosition
         self.m_needs_sample_2 = False

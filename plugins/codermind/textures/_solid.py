@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import drjit as dr
 import mitsuba as mi
 
 from . import _noise
@@ -17,6 +18,19 @@ def positive_float(props: mi.Properties, plugin: str, name: str, default: float)
     if not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{plugin}: '{name}' must be a finite number > 0, got {value:g}")
     return value
+
+
+def finite_color(props: mi.Properties, plugin: str, name: str, default: float) -> mi.Texture:
+    """An unbounded colour texture; a uniform one must be finite in every channel."""
+    texture = props.get_unbounded_texture(name, default)
+    if not texture.is_spatially_varying():
+        si = dr.zeros(mi.SurfaceInteraction3f) if dr.is_jit_v(mi.Float) else \
+            mi.SurfaceInteraction3f()
+        value = [float(dr.slice(c)) if dr.is_jit_v(mi.Float) else float(c)
+                 for c in texture.eval_3(si)]
+        if not all(math.isfinite(v) for v in value):
+            raise ValueError(f"{plugin}: '{name}' must be finite, got {value}")
+    return texture
 
 
 def octave_count(props: mi.Properties, plugin: str, default: int = 9) -> int:
@@ -42,8 +56,8 @@ class SolidTexture(mi.Texture):
         self.mixes_colors = mixes_colors
         if mixes_colors:
             # Unbounded: the tutorial's colours are plain multipliers and may exceed 1.
-            self.color0 = props.get_unbounded_texture("color0", 1.0)
-            self.color1 = props.get_unbounded_texture("color1", 0.0)
+            self.color0 = finite_color(props, self.plugin, "color0", 1.0)
+            self.color1 = finite_color(props, self.plugin, "color1", 0.0)
 
     # -- to be provided by subclasses ---------------------------------------------------
     def weight(self, p: mi.Point3f) -> mi.Float:
