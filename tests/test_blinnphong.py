@@ -188,6 +188,7 @@ def test_renders_with_path_tracer(llvm):
     ({"specular_reflectance": -0.2}, "specular_reflectance"),
     ({"diffuse_reflectance": 0.7, "specular_reflectance": 0.5}, "diffuse_reflectance"),
     ({"diffuse_reflectance": float("nan")}, "diffuse_reflectance"),
+    ({"diffuse_reflectance": (1.5, 0.1, 0.1)}, "diffuse_reflectance"),
     ({"specular_reflectance": (0.1, float("nan"), 0.1)}, "specular_reflectance"),
 ])
 def test_bad_parameters_name_the_parameter(llvm, params, name):

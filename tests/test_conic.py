@@ -212,6 +212,8 @@ def test_blur_of_a_point_matches_the_thin_lens_formula(llvm, lens):
     ({"pixel_offset_x": 0.5, "pixel_offset_y": 1.5}, "'pixel_offset_y'"),
     ({"fov_axis": "z"}, "'fov_axis'"),
     ({"aperture": float("inf")}, "'aperture'"),
+    ({"fov": "wide"}, "'fov' must be a number"),
+    ({"aperture": True}, "'aperture' must be a number"),
     ({"aperture": 1e39}, "'aperture'"),
     ({"aperture": 1.0, "focus_distance": float("inf")}, "'focus_distance'"),
     ({"aperture": 1.0, "far_clip": float("inf")}, "'focus_distance' must be finite"),

@@ -84,6 +84,8 @@ def test_ray_range_is_the_tutorial_t_range(llvm):
     ({"near_clip": 5.0, "far_clip": 1.0}, "'near_clip'"),
     ({"pixel_offset_y": 2.0, "pixel_offset_x": 0.0}, "'pixel_offset_y'"),
     ({"pixel_offset_y": 0.0}, "'pixel_offset_x'"),
+    ({"near_clip": "near"}, "'near_clip' must be a number"),
+    ({"pixel_offset_x": 0.0, "pixel_offset_y": "0"}, "'pixel_offset_y' must be a number"),
 ])
 def test_bad_parameters_give_one_clear_error(llvm, params, needle):
     with pytest.raises(RuntimeError) as e:

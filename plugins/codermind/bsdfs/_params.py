@@ -8,14 +8,13 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from ..params import number
+
 
 def read_float(props: mi.Properties, plugin: str, name: str, default: float,
                lo: float | None = None, hi: float | None = None) -> float:
     """A finite float in [lo, hi] (either bound optional)."""
-    value = props.get(name, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{plugin}: '{name}' must be a number, got {value!r}")
-    value = float(value)
+    value = number(props, plugin, name, default)
     if not math.isfinite(value) or (lo is not None and value < lo) or \
             (hi is not None and value > hi):
         bounds = (f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}") \
@@ -41,8 +40,12 @@ def read_texture(props: mi.Properties, plugin: str, name: str, default: float,
                  unbounded: bool = False) -> mi.Texture:
     """A texture parameter; a uniform one must be finite and >= 0 in every channel. ``unbounded``
     accepts RGB values above 1 (Mitsuba rejects them for reflectances otherwise)."""
-    texture = props.get_unbounded_texture(name, default) if unbounded else \
-        props.get_texture(name, default)
+    try:
+        texture = props.get_unbounded_texture(name, default) if unbounded else \
+            props.get_texture(name, default)
+    except RuntimeError as e:       # e.g. Mitsuba's "Invalid RGB reflectance value ..."
+        lines = str(e).strip().splitlines()
+        raise ValueError(f"{plugin}: '{name}': {lines[-1] if lines else e}") from None
     value = uniform_rgb(texture)
     if value is not None and not all(math.isfinite(v) and v >= 0 for v in value):
         raise ValueError(f"{plugin}: '{name}' must be finite and >= 0 in every channel, "

@@ -4,6 +4,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..textures import _noise
+from ..params import flag
 from ._params import read_float
 
 
@@ -89,7 +90,7 @@ class NoiseBumpBSDF(mi.BSDF):
         self.frequency = read_float(props, name, "frequency", 0.1, lo=0.0)
         if self.frequency == 0:
             raise ValueError(f"{name}: 'frequency' must be > 0, got 0")
-        self.leak_check = bool(props.get("leak_check", False))
+        self.leak_check = flag(props, name, "leak_check", False)
         self.identity = "to_world" not in props
         if not self.identity:
             inverse = props.get("to_world").inverse().matrix

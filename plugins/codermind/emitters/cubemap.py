@@ -7,6 +7,7 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
+from codermind.params import flag, number
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -137,12 +138,12 @@ class CubeMap(mi.Emitter):
         if self.mode == "background" and self.sampling_weight() != 0.0:
             mi.Log(mi.LogLevel.Debug, "cubemap: background mode with a nonzero "
                    "sampling_weight: light samples that pick it are wasted")
-        self.srgb = bool(props.get("srgb", False))
-        self.exposed = bool(props.get("exposed", False))
-        self.exposure = float(props.get("exposure", 1.0))
+        self.srgb = flag(props, "cubemap", "srgb", False)
+        self.exposed = flag(props, "cubemap", "exposed", False)
+        self.exposure = number(props, "cubemap", "exposure", 1.0)
         if not self.exposure > 0:
             raise ValueError(f"cubemap: 'exposure' must be > 0, got {self.exposure:g}")
-        self.scale = float(props.get("scale", 1.0))
+        self.scale = number(props, "cubemap", "scale", 1.0)
         if not np.isfinite(self.scale):
             raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
         linear = np.array(self.world_transform().matrix, dtype=np.float64).reshape(4, 4)[:3, :3]

@@ -5,6 +5,8 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from codermind.params import flag
+
 
 class TutorialPointLight(mi.Emitter):
     r"""
@@ -71,7 +73,7 @@ class TutorialPointLight(mi.Emitter):
         mean = self.intensity.mean()
         if not math.isfinite(float(dr.slice(mean) if dr.is_jit_v(mean) else mean)):
             raise ValueError("tutorialpoint: 'intensity' must be finite")
-        self.falloff = bool(props.get("falloff", False))
+        self.falloff = flag(props, "tutorialpoint", "falloff", False)
         self.m_flags = mi.EmitterFlags.DeltaPosition
         self.m_needs_sample_2 = False
         self.m_needs_sample_3 = False

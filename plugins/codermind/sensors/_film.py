@@ -10,6 +10,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from codermind.params import number
+
 
 def read_pixel_offset(props: mi.Properties, plugin: str) -> tuple[float, float] | None:
     """``pixel_offset_x``/``pixel_offset_y``: a fixed position inside each film pixel, in
@@ -20,7 +22,7 @@ def read_pixel_offset(props: mi.Properties, plugin: str) -> tuple[float, float] 
     if len(given) == 1:
         raise ValueError(f"{plugin}: give both 'pixel_offset_x' and 'pixel_offset_y' "
                          f"(only '{given[0]}' was given)")
-    offset = (float(props.get("pixel_offset_x")), float(props.get("pixel_offset_y")))
+    offset = (number(props, plugin, "pixel_offset_x"), number(props, plugin, "pixel_offset_y"))
     for name, value in zip(("pixel_offset_x", "pixel_offset_y"), offset):
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"{plugin}: '{name}' must be in [0, 1] (pixels), got {value:g}")
@@ -65,7 +67,7 @@ def x_fov(props: mi.Properties, aspect: float, plugin: str) -> float:
     if "fov" in props and "focal_length" in props:
         raise ValueError(f"{plugin}: give either 'fov' or 'focal_length', not both")
     if "fov" in props:
-        fov = float(props.get("fov"))
+        fov = number(props, plugin, "fov")
         axis = str(props.get("fov_axis", "x")).lower()
         if not 0.0 < fov < 180.0:
             raise ValueError(f"{plugin}: 'fov' must be in (0, 180) degrees, got {fov:g}")

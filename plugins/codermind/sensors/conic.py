@@ -5,6 +5,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from codermind.params import number
 from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel_offset,
                                     to_world_matrix, x_fov)
 
@@ -127,13 +128,13 @@ class ConicCamera(mi.Sensor):
         self.lens = str(props.get("lens", "disc"))
         if self.lens not in self.LENSES:
             raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got '{self.lens}'")
-        self.near_clip = float(props.get("near_clip", 1e-2))
-        self.far_clip = float(props.get("far_clip", 1e4))
+        self.near_clip = number(props, "conic", "near_clip", 1e-2)
+        self.far_clip = number(props, "conic", "far_clip", 1e4)
         if not 0.0 <= self.near_clip < self.far_clip:
             raise ValueError(f"conic: need 0 <= 'near_clip' < 'far_clip', got "
                              f"{self.near_clip:g} and {self.far_clip:g}")
-        self.aperture = float(props.get("aperture", 0.0))
-        self.focus_distance = float(props.get("focus_distance", self.far_clip))
+        self.aperture = number(props, "conic", "aperture", 0.0)
+        self.focus_distance = number(props, "conic", "focus_distance", self.far_clip)
         if not 0.0 <= self.aperture <= FLOAT32_MAX:
             raise ValueError(f"conic: 'aperture' must be >= 0 and finite (in float32), got "
                              f"{self.aperture:g}")

@@ -9,12 +9,13 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from ..params import number
 from . import _noise
 
 
 
 def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
-    value = float(props.get(name, default))
+    value = number(props, plugin, name, default)
     if not (value > 0 and math.isfinite(value)):
         raise ValueError(f"{plugin}: '{name}' must be a finite number > 0, got {value:g}")
     return value
