@@ -136,8 +136,7 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_wavelengths(self, si: mi.SurfaceInteraction3f, sample: mi.Float,
                            active: mi.Bool = True) -> tuple[mi.Wavelength, mi.Spectrum]:
-        return self.intensity.sample_spectrum(
-            si, mi.math.sample_shifted(sample), active)
+        return self.intensity.sample_spectrum(si, _shifted(type(si.wavelengths), sample), active)
 
     def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Spectrum:
         return mi.Spectrum(0.0)
@@ -156,6 +155,16 @@ class TutorialPointLight(mi.Emitter):
     def to_string(self) -> str:
         return (f"TutorialPointLight[\n  position = {self.position},\n"
                 f"  intensity = {self.intensity},\n  falloff = {self.falloff}\n]")
+
+
+def _shifted(kind, sample):
+    """Mitsuba's ``math::sample_shifted`` (not exposed to Python): the wavelength sample's
+    n equally spaced copies modulo 1; RGB variants have no wavelengths (n = 0)."""
+    n = dr.size_v(kind)
+    if n == 0:
+        return dr.zeros(kind) if dr.is_jit_v(mi.Float) else kind()
+    return kind([dr.fma(1.0 / n, k, sample) - dr.floor(dr.fma(1.0 / n, k, sample))
+                 for k in range(n)])
 
 
 mi.register_emitter("tutorialpoint", lambda props, cls=TutorialPointLight: cls(props))
