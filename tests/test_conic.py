@@ -228,7 +228,8 @@ def test_bad_parameters_give_one_clear_error(llvm, params, needle):
 @pytest.mark.parametrize("lens", ["disc", "tutorial"])
 @pytest.mark.parametrize("params", [{"far_clip": float("inf")}, {"far_clip": 1e30},
                                     {"aperture": 1e30, "focus_distance": 10.0},
-                                    {"aperture": 1e-3, "focus_distance": 1e30}])
+                                    {"aperture": 1e-3, "focus_distance": 1e30},
+                                    {"aperture": 1e19, "focus_distance": 1.0}])
 def test_extreme_distances_give_finite_unit_rays(llvm, lens, params):
     """A pinhole whose focus distance defaults to an infinite or huge far_clip, and huge
     apertures or focus distances, used to give NaN or zero directions (float32 overflow of
@@ -236,8 +237,9 @@ def test_extreme_distances_give_finite_unit_rays(llvm, lens, params):
     mi = llvm
     camera = mi.load_dict({"type": "conic", "lens": lens, "fov": 60.0, **params})
     rng = np.random.default_rng(2)
-    ray, _ = camera.sample_ray(0.0, 0.5, mi.Point2f(rng.random((2, 100))),
-                               mi.Point2f(rng.random((2, 100))))
+    s3 = rng.random((2, 100))
+    s3[:, 0] = 0.5                  # the disc's centre
+    ray, _ = camera.sample_ray(0.0, 0.5, mi.Point2f(rng.random((2, 100))), mi.Point2f(s3))
     o, d = ray.o.numpy(), ray.d.numpy()
     assert np.isfinite(o).all() and np.isfinite(d).all()
     np.testing.assert_allclose(np.linalg.norm(d, axis=0), 1.0, rtol=1e-5)

@@ -178,7 +178,11 @@ class ConicCamera(mi.Sensor):
             return dr.normalize(q)
         f = self.focus_distance / self.lens_scale
         focus = q * f if self.lens == "disc" else dr.normalize(q) * f
-        return dr.normalize(focus - offset * (self.aperture / self.lens_scale))
+        v = focus - offset * (self.aperture / self.lens_scale)
+        # divided by its largest component first: one of the two terms may be tiny (its
+        # squared norm would underflow to 0 at the lens centre, where the other one is 0)
+        m = dr.maximum(dr.maximum(dr.abs(v.x), dr.abs(v.y)), dr.abs(v.z))
+        return dr.normalize(dr.select(m > 0, v / dr.select(m > 0, m, 1.0), q))
 
     def _ray(self, offset: mi.Vector3f, q: mi.Vector3f) -> tuple[mi.Point3f, mi.Vector3f, mi.Float]:
         """World origin, world direction and length of the ray from the aperture point
