@@ -10,6 +10,26 @@ from pathlib import Path
 
 import pytest
 
+from hypothesis import HealthCheck, settings
+
+# Hypothesis (tests/test_properties.py, tests/test_parser_fuzz.py): CI runs the "ci" profile,
+# small and derandomized (the same examples every run, no deadline flakiness); a long run is
+# HYPOTHESIS_PROFILE=long (random examples; see the README for the command and its result).
+PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
+_COMMON = dict(deadline=None, database=None, print_blob=True,
+               suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                      HealthCheck.function_scoped_fixture])
+settings.register_profile("ci", max_examples=20, derandomize=True, **_COMMON)
+settings.register_profile("long", max_examples=100_000, derandomize=False, **_COMMON)
+settings.load_profile(PROFILE)
+
+
+def examples(ci: int, long: int):
+    """Per-test example counts (``@examples(ci=..., long=...)``) for tests whose examples
+    are expensive (a Mitsuba plugin is built and its kernels compiled per example)."""
+    return settings(max_examples=long if PROFILE == "long" else ci)
+
+
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 TUTORIAL = SHARED / "tutorial"
