@@ -212,6 +212,7 @@ def test_textures_in_both_bsdfs_from_xml(llvm):
     ({"type": "marble", "octaves": 100}, "marble: 'octaves'"),
     ({"type": "marble", "stripe_frequency": float("inf")}, "marble: 'stripe_frequency'"),
     ({"type": "turbulence", "color0": float("nan")}, "turbulence: 'color0'"),
+    ({"type": "perlin", "frequency": 1e39}, "perlin: 'frequency'"),
     ({"type": "marble", "color1": {"type": "rgb", "value": [0.0, float("inf"), 0.0]}},
      "marble: 'color1'"),
 ])
@@ -246,6 +247,11 @@ def test_overflowing_coordinates_give_zero_not_nan(llvm):
         si.p = mi.Point3f(p.astype(np.float32))
         value = texture.eval_1(si).numpy()
         assert np.isfinite(value).all(), (spec["type"], value)
+    # the finest octave's frequency (9 x 1e38) is beyond float32: still 0 x it = 0, not NaN
+    texture = mi.load_dict({"type": "turbulence", "frequency": 1e38})
+    si = dr.zeros(mi.SurfaceInteraction3f, 2)
+    si.p = mi.Point3f([0.0, 1e-30], [0.0, 0.0], [0.0, 0.0])
+    assert np.isfinite(texture.eval_1(si).numpy()).all()
     texture = mi.load_dict({"type": "perlin", "frequency": 1e10})
     si = dr.zeros(mi.SurfaceInteraction3f, p.shape[1])
     si.p = mi.Point3f(p.astype(np.float32))

@@ -323,6 +323,8 @@ def test_turbulence_texture_as_diffuse(llvm):
     ({"diffuse": -0.5}, "diffuse"),
     ({"diffuse": float("nan")}, "diffuse"),
     ({"specular": float("inf")}, "specular"),
+    ({"power": 1e39}, "power"),                  # inf in float32: 1^inf is NaN
+    ({"density": 1e-203}, "density"),            # 0 in float32: n1 / n2 is inf
 ])
 def test_bad_parameters_name_the_parameter(llvm, params, name):
     mi = llvm

@@ -4,6 +4,11 @@ names the parameter whatever the user passed (a string or a boolean for a number
 
 from __future__ import annotations
 
+#: Largest finite float32 and smallest normal one: the plugins compute in float32, so a
+#: parameter beyond (or a positive one below) these would become inf (or 0) in their kernels.
+FLOAT32_MAX = 3.4028234663852886e38
+FLOAT32_MIN_NORMAL = 1.1754943508222875e-38
+
 
 def number(props, plugin: str, name: str, default: float | None = None) -> float:
     """A number (int or float, not bool); ``default`` when absent (None: required)."""

@@ -8,18 +8,21 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from ..params import number
+from ..params import FLOAT32_MAX, number
 
 
 def read_float(props: mi.Properties, plugin: str, name: str, default: float,
                lo: float | None = None, hi: float | None = None) -> float:
-    """A finite float in [lo, hi] (either bound optional)."""
+    """A float in [lo, hi], finite in float32 (either bound optional)."""
     value = number(props, plugin, name, default)
     if not math.isfinite(value) or (lo is not None and value < lo) or \
             (hi is not None and value > hi):
         bounds = (f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}") \
             if lo is not None else f"<= {hi:g}"
         raise ValueError(f"{plugin}: '{name}' must be finite and {bounds}, got {value:g}")
+    if abs(value) > FLOAT32_MAX:
+        raise ValueError(f"{plugin}: '{name}' must be finite in float32 (at most "
+                         f"{FLOAT32_MAX:.4g}), got {value:g}")
     return value
 
 

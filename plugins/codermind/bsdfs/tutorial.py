@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..params import FLOAT32_MIN_NORMAL
 from ._params import read_float, read_texture
 
 PAGES = (1, 2, 4)
@@ -155,6 +156,9 @@ class TutorialBSDF(mi.BSDF):
         self.refraction = read_float(props, name, "refraction", 0.0, lo=0.0, hi=1.0) \
             if page == 4 else 0.0
         self.density = read_float(props, name, "density", 0.0, lo=0.0) if page == 4 else 0.0
+        if 0.0 < self.density < FLOAT32_MIN_NORMAL:
+            raise ValueError(f"{name}: 'density' must be 0 (a metal) or at least "
+                             f"{FLOAT32_MIN_NORMAL:.3g} (float32), got {self.density:g}")
         self.metal = self.density == 0 or (self.reflection == 0 and self.refraction == 0)
 
         both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide

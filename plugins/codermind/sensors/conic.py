@@ -5,12 +5,9 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from codermind.params import number
+from codermind.params import FLOAT32_MAX, number
 from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel_offset,
                                     to_world_matrix, x_fov)
-
-
-FLOAT32_MAX = 3.4028234663852886e38
 
 
 class ConicCamera(mi.Sensor):

@@ -21,6 +21,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..params import FLOAT32_MAX
+
 #: Ken Perlin's permutation (https://mrl.nyu.edu/~perlin/noise/), 223 at index 156.
 PERMUTATION = (
     151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30,
@@ -142,7 +144,7 @@ def turbulence(p: mi.Point3f, frequency: float, octaves: int) -> mi.Float:
     """The tutorial's T = sum_{k=1..octaves} |noise(frequency * k * p)| / k."""
     t = mi.Float(0.0)
     for k in range(1, octaves + 1):
-        f = frequency * k
+        f = min(frequency * k, FLOAT32_MAX)     # 0 * inf would be NaN
         t += dr.abs(noise(p.x * f, p.y * f, p.z * f)) * (1.0 / k)
     return t
 

@@ -9,15 +9,16 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from ..params import number
+from ..params import FLOAT32_MAX, number
 from . import _noise
 
 
 
 def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
     value = number(props, plugin, name, default)
-    if not (value > 0 and math.isfinite(value)):
-        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0, got {value:g}")
+    if not 0 < value <= FLOAT32_MAX:
+        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0 (in float32), got "
+                         f"{value:g}")
     return value
 
 
