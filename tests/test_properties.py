@@ -21,6 +21,8 @@ from conftest import examples
 N = 256                                   # directions / points / samples per example
 ONE_MINUS = 1.0 - 2.0 ** -24              # the largest float32 below 1
 SEEDS = st.integers(0, 2 ** 32 - 1)
+F32_MAX = 3.4028234663852886e38           # the largest float32: plugins accept up to it
+F32_TINY = 1.1754943508222875e-38         # the smallest normal float32
 
 
 def unit(lo: float = 0.0, hi: float = 1.0):
@@ -137,11 +139,13 @@ def tutorial_specs(draw):
     page = draw(st.sampled_from([1, 2, 4]))
     spec = {"type": "tutorial", "page": page, "diffuse": colour_or_texture(draw),
             "specular": colour_or_texture(draw),
-            "power": draw(st.one_of(st.just(0.0), positive(1e-3, 1e6))),
+            "power": draw(st.one_of(st.sampled_from([0.0, F32_MAX]), positive(1e-3, F32_MAX))),
             "reflection": draw(unit())}
     if page == 4:
         spec["refraction"] = draw(unit())
-        spec["density"] = draw(st.one_of(st.sampled_from([0.0, 1.0, 1.5, 2.0]), unit(0, 10)))
+        spec["density"] = draw(st.one_of(st.sampled_from([0.0, 1.0, 1.5, 2.0, F32_TINY, F32_MAX]),
+                                         unit(0, 10).filter(lambda v: v == 0 or v >= F32_TINY),
+                                         positive(F32_TINY, F32_MAX)))
     return spec
 
 
@@ -160,7 +164,8 @@ def test_tutorial_outputs_are_finite(llvm, spec, seed):
 
 @examples(ci=8, long=1500)
 @given(nested=st.one_of(tutorial_specs(), blinnphong_specs().map(lambda c: c[0])),
-       bumplevel=unit(), frequency=positive(1e-4, 1e4), leak_check=st.booleans(), seed=SEEDS)
+       bumplevel=unit(), frequency=positive(1e-30, F32_MAX), leak_check=st.booleans(),
+       seed=SEEDS)
 def test_noisebump_outputs_are_finite(llvm, nested, bumplevel, frequency, leak_check, seed):
     check_bsdf(llvm, {"type": "noisebump", "bumplevel": bumplevel, "frequency": frequency,
                       "leak_check": leak_check, "nested": nested}, seed)
@@ -171,13 +176,13 @@ def test_noisebump_outputs_are_finite(llvm, nested, bumplevel, frequency, leak_c
 @st.composite
 def texture_specs(draw):
     kind = draw(st.sampled_from(["perlin", "turbulence", "marble"]))
-    spec = {"type": kind, "frequency": draw(positive(1e-6, 1e10))}
+    spec = {"type": kind, "frequency": draw(positive(1e-30, F32_MAX))}
     if kind != "perlin":
         spec["octaves"] = draw(st.integers(1, 64))
         spec["color0"] = rgb(draw(st.tuples(unit(-10, 10), unit(-10, 10), unit(-10, 10))))
         spec["color1"] = rgb(draw(st.tuples(unit(-10, 10), unit(-10, 10), unit(-10, 10))))
     if kind == "marble":
-        spec["stripe_frequency"] = draw(positive(1e-6, 1e10))
+        spec["stripe_frequency"] = draw(positive(1e-30, F32_MAX))
     return spec
 
 
@@ -223,8 +228,8 @@ def check_emitter(mi, emitter, rng):
 
 @examples(ci=8, long=1500)
 @given(size=st.integers(1, 4), mode=st.sampled_from(["light", "background"]),
-       srgb=st.booleans(), exposed=st.booleans(), exposure=positive(1e-6, 1e6),
-       scale=st.one_of(st.just(0.0), positive(1e-6, 1e6)), angle=unit(-180, 180),
+       srgb=st.booleans(), exposed=st.booleans(), exposure=positive(1e-300, 1e300),
+       scale=st.one_of(st.just(0.0), positive(1e-300, 1e300)), angle=unit(-180, 180),
        seed=SEEDS)
 def test_cubemap_outputs_are_finite(llvm, size, mode, srgb, exposed, exposure, scale, angle,
                                     seed):
@@ -282,10 +287,10 @@ def check_sensor(mi, sensor, rng):
     s2, s3 = mi.Point2f(samples(rng)), mi.Point2f(samples(rng))
     ray, weight = sensor.sample_ray(0.0, s1, s2, s3)
     rd, rd_weight = sensor.sample_ray_differential(0.0, s1, s2, s3)
-    assert_finite(o=ray.o, d=ray.d, maxt=ray.maxt, weight=weight, rd_o=rd.o, rd_d=rd.d,
+    assert_finite(o=ray.o, d=ray.d, weight=weight, rd_o=rd.o, rd_d=rd.d,
                   o_x=rd.o_x, o_y=rd.o_y, d_x=rd.d_x, d_y=rd.d_y, rd_weight=rd_weight)
     np.testing.assert_allclose(np.linalg.norm(ray.d.numpy(), axis=0), 1.0, rtol=1e-4)
-    assert ray.maxt.numpy().min() >= 0
+    assert ray.maxt.numpy().min() >= 0          # +inf allowed (far_clip = inf)
 
 
 @st.composite
@@ -296,8 +301,8 @@ def film(draw):
 
 @st.composite
 def clip_range(draw):
-    near = draw(st.one_of(st.just(0.0), positive(1e-6, 1e4)))
-    return near, near + draw(positive(1e-2, 1e8))
+    near = draw(st.one_of(st.just(0.0), positive(1e-30, 1e300)))
+    return near, near + draw(st.one_of(positive(1e-2, 1e300), st.just(math.inf)))
 
 
 @st.composite
@@ -311,8 +316,8 @@ def pixel_offset(draw):
 @given(lens=st.sampled_from(["disc", "tutorial"]),
        fov=st.floats(0.0, 180.0, exclude_min=True, exclude_max=True),
        fov_axis=st.sampled_from(["x", "y", "diagonal", "smaller", "larger"]),
-       aperture=st.one_of(st.just(0.0), positive(1e-6, 1e30)),
-       focus=positive(1e-6, 1e30), clip=clip_range(), offset=pixel_offset(), film=film(),
+       aperture=st.one_of(st.just(0.0), positive(1e-30, F32_MAX)),
+       focus=positive(1e-30, F32_MAX), clip=clip_range(), offset=pixel_offset(), film=film(),
        mirror=st.booleans(), seed=SEEDS)
 def test_conic_rays_are_finite_unit(llvm, lens, fov, fov_axis, aperture, focus, clip, offset,
                                     film, mirror, seed):

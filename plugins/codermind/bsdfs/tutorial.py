@@ -271,7 +271,9 @@ class TutorialBSDF(mi.BSDF):
         f = dr.select(inside, -1.0, 1.0)
         refracted = dr.normalize(mi.Vector3f(-eta * wi.x, -eta * wi.y,
                                              eta * dr.fma(cos_i, f, -wi.z) - cos_t * f))
-        bs.wo = dr.select(reflect, mirror, refracted)
+        # the refracted direction only where refraction happens (under TIR with a huge
+        # density it overflows to NaN; an invalid sample gets the finite mirror direction)
+        bs.wo = dr.select(refract, refracted, mirror)
         bs.pdf = dr.select(ok, dr.select(reflect, rf, tr) / dr.select(ok, scale, 1.0), 0.0)
         bs.sampled_type = dr.select(reflect, mi.UInt32(int(mi.BSDFFlags.DeltaReflection)),
                                     mi.UInt32(int(mi.BSDFFlags.DeltaTransmission)))
