@@ -409,12 +409,16 @@ def test_samples_are_finite_for_extreme_densities(llvm):
         n = 64
         rng = np.random.default_rng(1)
         d = rng.normal(size=(3, n))
+        # a shading normal tilted from the geometric one: a wi in front of the first can be
+        # behind the second ("inside", where n1 = density), as the world direction w
+        shading = np.array([0.6, 0.0, 0.8])
+        w = np.array([1.0, 0.0, -0.05]) / np.linalg.norm([1.0, 0.0, -0.05])
+        d[:, 0] = [w @ np.cross([0, 1, 0], shading), w[1], w @ shading]  # w in that frame
         si = dr.zeros(mi.SurfaceInteraction3f, n)
-        si.wi = mi.Vector3f(d / np.linalg.norm(d, axis=0))
         si.n = mi.Normal3f(0, 0, 1)
-        # a shading normal tilted from the geometric one: some wi in front of the first are
-        # behind the second ("inside"), where n1 = density
-        si.sh_frame = mi.Frame3f(mi.Vector3f(0.6, 0.0, 0.8))
+        si.sh_frame = mi.Frame3f(mi.Vector3f(np.cross([0, 1, 0], shading).tolist()),
+                                 mi.Vector3f(0, 1, 0), mi.Vector3f(shading.tolist()))
+        si.wi = mi.Vector3f(d / np.linalg.norm(d, axis=0))
         bs, weight = bsdf.sample(mi.BSDFContext(), si, mi.Float(rng.random(n)),
                                  mi.Point2f(0.5, 0.5))
         assert np.isfinite(bs.wo.numpy()).all() and np.isfinite(weight.numpy()).all(), density
