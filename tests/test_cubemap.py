@@ -377,3 +377,22 @@ def test_cli_names_a_missing_face_in_one_line(tmp_path):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "face 'up': file 'alpup.tga' not found" in lines[0], result.stderr
+
+
+@pytest.mark.parametrize("exposure", [1e38, 1e-30])
+def test_sampling_is_finite_for_very_dim_or_bright_maps(llvm, exposure):
+    """The sampling weights are relative: a map divided by 1e38 (radiance near the float32
+    minimum) gave an all-zero distribution and NaN samples (found by the property tests)."""
+    mi = llvm
+    import drjit as dr
+    emitter = mi.load_dict({"type": "cubemap", "exposure": exposure, **synthetic_faces(mi)})
+    n = 1000
+    rng = np.random.default_rng(2)
+    it = dr.zeros(mi.Interaction3f, n)
+    ds, weight = emitter.sample_direction(it, mi.Point2f(rng.random((2, n))))
+    assert np.isfinite(ds.d.numpy()).all() and np.isfinite(ds.p.numpy()).all()
+    assert np.isfinite(weight.numpy()).all() and (ds.pdf.numpy() > 0).mean() > 0.5
+    # the sampled directions follow the same distribution as at exposure 1
+    plain = mi.load_dict({"type": "cubemap", **synthetic_faces(mi)})
+    ds1, _ = plain.sample_direction(it, mi.Point2f(rng.random((2, n))))
+    assert np.allclose(ds.pdf.numpy(), plain.pdf_direction(it, ds).numpy(), rtol=1e-4)

@@ -31,7 +31,7 @@ def unit(lo: float = 0.0, hi: float = 1.0):
 
 def positive(lo: float, hi: float):
     """Log-uniform-ish positive floats in [lo, hi]: small and huge values both appear."""
-    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: 10.0 ** e)
+    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: min(hi, max(lo, 10.0 ** e)))
 
 
 RGB = st.tuples(unit(), unit(), unit())

@@ -243,6 +243,8 @@ class CubeMap(mi.Emitter):
         weights = corners * solid_angle
         if not weights.sum() > 0:
             weights = np.broadcast_to(solid_angle, lum.shape)
+        # scale-free: a dim map (radiance near 1e-38) would underflow in float32
+        weights = weights / weights.max()
         return np.ascontiguousarray(weights.reshape(6 * h, w), dtype=np.float32)
 
     def _sample_local(self, sample: mi.Point2f, active: mi.Bool
