@@ -7,7 +7,7 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
-from codermind.params import flag, number
+from codermind.params import FLOAT32_MAX, flag, number
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -146,6 +146,9 @@ class CubeMap(mi.Emitter):
         self.scale = number(props, "cubemap", "scale", 1.0)
         if not np.isfinite(self.scale):
             raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
+        if not abs(self.scale / self.exposure) <= FLOAT32_MAX:
+            raise ValueError(f"cubemap: 'scale' / 'exposure' = {self.scale / self.exposure:g} "
+                             f"is beyond float32")
         linear = np.array(self.world_transform().matrix, dtype=np.float64).reshape(4, 4)[:3, :3]
         if not np.allclose(linear.T @ linear, np.eye(3), atol=1e-4):
             raise ValueError("cubemap: 'to_world' must be a rotation or reflection (no scale)")

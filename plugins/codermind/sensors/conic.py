@@ -127,6 +127,9 @@ class ConicCamera(mi.Sensor):
             raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got '{self.lens}'")
         self.near_clip = number(props, "conic", "near_clip", 1e-2)
         self.far_clip = number(props, "conic", "far_clip", 1e4)
+        if not self.near_clip <= FLOAT32_MAX:
+            raise ValueError(f"conic: 'near_clip' must be finite in float32, got "
+                             f"{self.near_clip:g}")
         if not 0.0 <= self.near_clip < self.far_clip:
             raise ValueError(f"conic: need 0 <= 'near_clip' < 'far_clip', got "
                              f"{self.near_clip:g} and {self.far_clip:g}")
