@@ -201,12 +201,46 @@ def distance_to_mesh(p, vertices, faces, k=24):
     return best
 
 
-def distance_to_surface_local(p, centers, radius, kind, reach, iters=60):
+def distance_to_surface_local(p, centers, radius, kind, reach):
     """Upper bound of each point's distance to the surface, vectorized: bisection for a
     surface point within ``reach`` along the line through p in the direction of the exact
     field's gradient, on each side; inf where neither side changes sign."""
     g = exact_gradient(p, centers, radius)
+    return _distance_along(p, g / np.linalg.norm(g, axis=1, keepdims=True), centers, radius,
+                           kind, reach)
+
+
+def sample_triangles(vertices, faces, per_face, rng):
+    """Uniform random points on every triangle (per_face each), and their faces."""
+    u = rng.random((len(faces), per_face, 2))
+    flip = u.sum(-1) > 1
+    u[flip] = 1 - u[flip]
+    a, b, c = (vertices[faces[:, k]][:, None, :] for k in range(3))
+    p = a + u[..., :1] * (b - a) + u[..., 1:] * (c - a)
+    return p.reshape(-1, 3), np.repeat(np.arange(len(faces)), per_face)
+
+
+def distance_to_surface_cone(p, centers, radius, kind, reach, rng, n_dirs=128, cone_deg=80.0):
+    """Tighter upper bound for a few points: the nearest surface point along any of
+    ``n_dirs`` lines in a cone around the exact field's gradient (at a crease of the zone
+    field the nearest surface point is not along the gradient)."""
+    g = exact_gradient(p, centers, radius)
     n = g / np.linalg.norm(g, axis=1, keepdims=True)
+    best = distance_to_surface_local(p, centers, radius, kind, reach)
+    for _ in range(n_dirs):
+        d = n + np.tan(np.radians(cone_deg)) * rng.random((len(p), 1)) * _perpendicular(n, rng)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        best = np.minimum(best, _distance_along(p, d, centers, radius, kind, reach))
+    return best
+
+
+def _perpendicular(n, rng):
+    r = rng.normal(size=n.shape)
+    r -= (r * n).sum(1, keepdims=True) * n
+    return r / np.linalg.norm(r, axis=1, keepdims=True)
+
+
+def _distance_along(p, n, centers, radius, kind, reach, iters=50):
     g0 = field(p, centers, radius, kind) - 1
     best = np.where(g0 == 0, 0.0, np.inf)
     for side in (1.0, -1.0):
@@ -223,11 +257,14 @@ def distance_to_surface_local(p, centers, radius, kind, reach, iters=60):
     return best
 
 
-def sample_triangles(vertices, faces, per_face, rng):
-    """Uniform random points on every triangle (per_face each), and their faces."""
-    u = rng.random((len(faces), per_face, 2))
-    flip = u.sum(-1) > 1
-    u[flip] = 1 - u[flip]
-    a, b, c = (vertices[faces[:, k]][:, None, :] for k in range(3))
-    p = a + u[..., :1] * (b - a) + u[..., 1:] * (c - a)
-    return p.reshape(-1, 3), np.repeat(np.arange(len(faces)), per_face)
+def mesh_to_surface(vertices, faces, centers, radius, kind, max_error, per_face, rng):
+    """Sampled distance from the mesh to the surface (upper bounds): ``per_face`` random
+    points per triangle and the vertices; points above 0.9 max_error along the gradient
+    line are checked again along a cone of lines."""
+    p, _ = sample_triangles(vertices, faces, per_face, rng)
+    p = np.concatenate([p, vertices])
+    d = distance_to_surface_local(p, centers, radius, kind, 4 * max_error)
+    again = d > 0.9 * max_error
+    if again.any():
+        d[again] = distance_to_surface_cone(p[again], centers, radius, kind, 4 * max_error, rng)
+    return d

@@ -41,7 +41,9 @@ NORMALS = ("exact", "field", "flat")
 BLOCK = 4            # culling block size, in cells
 RELAX_ROUNDS = 3     # tangential relaxation rounds
 SNAP = 0.2           # crease cuts closer than SNAP * edge length to a vertex move the vertex
-MIN_ANGLE_DEG = 0.5  # smallest angle we accept before collapsing a triangle's short edge
+KEEP = 0.1           # ... or, if that vertex is on another crease, closer than KEEP: no cut
+MIN_ANGLE_DEG = 2.0  # needles with a smaller angle get their short edge collapsed
+MAX_GRID_POINTS = 2 ** 24  # marching-cubes grid cap (about 250 MB of work arrays)
 
 
 class BlobMeshError(ValueError):
@@ -204,6 +206,86 @@ def min_angles_deg(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out
 
 
+def _on_crease(field: BlobField, v: np.ndarray, rel: float = 1e-9) -> np.ndarray:
+    """Vertices on a zone sphere of some source (tutorial field), i.e. on a crease."""
+    out = np.zeros(len(v), dtype=bool)
+    if field.kind != "tutorial":
+        return out
+    for i in range(len(field.centers)):
+        k = 10.0 / np.maximum(field.sqdist(v, i), 1e-30)
+        j = np.rint(k)
+        out |= (np.abs(k - j) <= rel * j) & (j >= 1) & (j <= 9)
+    return out
+
+
+def _collapse_slivers(field: BlobField, v: np.ndarray, f: np.ndarray, min_angle: float,
+                      h: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Remove needles (a triangle with an angle below ``min_angle`` degrees and a short
+    edge) by collapsing the short edge into one end: the end on a crease if one is; two
+    crease vertices only if closer than h/50 (the creases then nearly meet). A collapse is
+    skipped where it would make the mesh non-manifold (link condition) or flip a triangle.
+    Returns vertices, faces, collapses done."""
+    done = 0
+    locked = _on_crease(field, v)
+    for _ in range(4):
+        ang = min_angles_deg(v, f)
+        bad = np.nonzero(ang < min_angle)[0]
+        if not len(bad):
+            break
+        P = v[f[bad]]
+        length = np.stack([np.linalg.norm(P[:, (k + 1) % 3] - P[:, k], axis=1) for k in range(3)], 1)
+        k = np.argmin(length, axis=1)
+        needle = length[np.arange(len(bad)), k] < 0.25 * length.max(axis=1)
+        order = np.argsort(length[np.arange(len(bad)), k][needle])
+        cand = [(int(f[t, kk]), int(f[t, (kk + 1) % 3]))
+                for t, kk in zip(bad[needle][order], k[needle][order])]
+        if not cand:
+            break
+        # vertex -> faces incidence
+        inc_order = np.argsort(f.ravel(), kind="stable")
+        starts = np.searchsorted(f.ravel()[inc_order], np.arange(len(v) + 1))
+        alive = np.ones(len(f), dtype=bool)
+        touched = np.zeros(len(v), dtype=bool)
+        fn = _face_normals(v, f)
+        new_f = f.copy()
+        n_round = 0
+        for a, b in cand:
+            if locked[a] and locked[b] and np.linalg.norm(v[a] - v[b]) > 0.02 * h:
+                continue
+            if locked[a]:
+                a, b = b, a                       # keep the crease vertex b, remove a
+            fa = inc_order[starts[a]:starts[a + 1]] // 3
+            fb = inc_order[starts[b]:starts[b + 1]] // 3
+            if touched[new_f[fa].ravel()].any() or touched[new_f[fb].ravel()].any():
+                continue                          # one collapse per neighbourhood per round
+            fa = fa[alive[fa]]
+            fb = fb[alive[fb]]
+            shared = np.intersect1d(fa, fb)
+            if len(shared) != 2:
+                continue
+            na = set(new_f[fa].ravel()) - {a}
+            nb = set(new_f[fb].ravel()) - {b}
+            opposite = set(new_f[shared].ravel()) - {a, b}
+            if (na & nb) != opposite:
+                continue                          # link condition
+            moved = np.setdiff1d(fa, shared)
+            tri = new_f[moved].copy()
+            tri[tri == a] = b
+            after = _face_normals(v, tri)
+            if (np.einsum("ij,ij->i", after, fn[moved]) <= 0).any() \
+                    or (len(tri) and min_angles_deg(v, tri).min() < min_angle):
+                continue
+            new_f[moved] = tri
+            alive[shared] = False
+            touched[list(na | nb | {a, b})] = True
+            n_round += 1
+        if n_round == 0:
+            break
+        f = new_f[alive]
+        done += n_round
+    return v, f, done
+
+
 def _vertex_neighbours(edges: np.ndarray, nv: int):
     import scipy.sparse as sp
     ones = np.ones(len(edges))
@@ -247,7 +329,8 @@ def _relax(field: BlobField, v: np.ndarray, f: np.ndarray, h: float, rounds: int
 # marching cubes in a narrow band
 # ------------------------------------------------------------------------------------------
 
-def _marching_cubes(field: BlobField, h: float, max_points: int) -> tuple[np.ndarray, np.ndarray, dict]:
+def _marching_cubes(field: BlobField, h: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Marching cubes on the band of 4x4x4-cell blocks where the surface can be."""
     reach = math.sqrt(field.support_x()) * field.radius
     lo = field.centers.min(axis=0) - reach - 2 * h
     hi = field.centers.max(axis=0) + reach + 2 * h
@@ -267,12 +350,11 @@ def _marching_cubes(field: BlobField, h: float, max_points: int) -> tuple[np.nda
     active = active[b0[0]:b1[0], b0[1]:b1[1], b0[2]:b1[2]]
     inside = inside[b0[0]:b1[0], b0[1]:b1[1], b0[2]:b1[2]]
     shape = tuple(int(x) for x in (b1 - b0) * BLOCK + 1)
-    if math.prod(shape) > max_points:
-        raise _TooFine(math.prod(shape))
     origin = lo + b0 * BLOCK * h
     # Fine cells take their block's class; fine points of active blocks get exact values.
     cells = np.repeat(np.repeat(np.repeat(active, BLOCK, 0), BLOCK, 1), BLOCK, 2)
-    cls = np.repeat(np.repeat(np.repeat(np.where(inside, 1.0, -1.0), BLOCK, 0), BLOCK, 1), BLOCK, 2)
+    cls = np.repeat(np.repeat(np.repeat(np.where(inside, np.float32(1), np.float32(-1)),
+                                        BLOCK, 0), BLOCK, 1), BLOCK, 2)
     vol = np.empty(shape, dtype=np.float32)
     vol[:-1, :-1, :-1] = cls
     vol[-1, :, :] = -1.0
@@ -295,12 +377,6 @@ def _marching_cubes(field: BlobField, h: float, max_points: int) -> tuple[np.nda
                                         allow_degenerate=False)
     faces = faces[:, ::-1].astype(np.int64)  # scikit-image's 'descent' faces inward: flip
     return verts + origin, faces, {"grid": shape, "band_points": int(len(p))}
-
-
-class _TooFine(Exception):
-    def __init__(self, points: int):
-        super().__init__(points)
-        self.points = points
 
 
 # ------------------------------------------------------------------------------------------
@@ -391,30 +467,27 @@ def _split_faces(v: np.ndarray, f: np.ndarray, cls: np.ndarray, edge_of: np.ndar
     return np.concatenate(out)
 
 
-def _cut_creases(field: BlobField, v: np.ndarray, f: np.ndarray, h: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+def _cut_creases(field: BlobField, v: np.ndarray, f: np.ndarray, h: float,
+                 fresh: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Cut the mesh along every zone sphere of every source (tutorial field only), so that
-    each triangle lies within one zone of every source. Returns vertices, faces, a flag per
-    vertex for the vertices that are new or moved, and the number of crease points not
-    found (surface tangent to a zone sphere)."""
+    each triangle lies within one zone of every source. Returns vertices, faces and the
+    number of crease points not found (surface tangent to a zone sphere). Only faces with a
+    ``fresh`` vertex (default: all) are looked at."""
     lost = 0
-    nv = len(v)
-    moved = []
+    fresh = np.ones(len(v), dtype=bool) if fresh is None else fresh.copy()
     # Vertices on a crease are never snapped onto another one (that would pull them off
     # the first: the cuts would chase each other).
-    locked = np.zeros(len(v), dtype=bool)
-    for i in range(len(field.centers)):
-        k = 10.0 / np.maximum(field.sqdist(v, i), 1e-30)
-        j = np.rint(k)
-        locked |= (np.abs(k - j) <= 1e-9 * j) & (j >= 1) & (j <= 9)
+    locked = _on_crease(field, v)
     # A crease point found for one source can fall in another zone of an earlier source
     # (near crossings of creases): repeat until no face crosses a zone boundary.
     for _ in range(6):
         changed = False
+        n_round = len(v)
+        moved_round = []
         for i, c in enumerate(field.centers):
             q = zone_index(field.sqdist(v, i))
             q0, q1, q2 = q[f[:, 0]], q[f[:, 1]], q[f[:, 2]]
-            work = (q0 != q1) | (q1 != q2)
+            work = ((q0 != q1) | (q1 != q2)) & (fresh[f[:, 0]] | fresh[f[:, 1]] | fresh[f[:, 2]])
             if not work.any():
                 continue
             # zone boundary x = 10/(j+1) lies between zone indices j and j+1
@@ -430,18 +503,20 @@ def _cut_creases(field: BlobField, v: np.ndarray, f: np.ndarray, h: float
                                                field.radius * math.sqrt(10.0 / (j + 1)), h,
                                                locked)
                 lost += n_lost
-                moved.append(mv)
+                moved_round.append(mv)
                 locked = np.concatenate([locked, np.ones(len(v) - n0, dtype=bool)])
+                fresh = np.concatenate([fresh, np.ones(len(v) - n0, dtype=bool)])
                 locked[mv] = True
             changed |= len(fw) != nf
             f = np.concatenate([rest, fw])
         if not changed:
             break
-    dirty = np.zeros(len(v), dtype=bool)
-    dirty[nv:] = True
-    for mv in moved:
-        dirty[mv] = True
-    return v, f, dirty, lost
+        # next round: only faces touched by this round's new or moved vertices
+        fresh = np.zeros(len(v), dtype=bool)
+        fresh[n_round:] = True
+        for mv in moved_round:
+            fresh[mv] = True
+    return v, f, lost
 
 
 def _cut_level(field: BlobField, v: np.ndarray, f: np.ndarray, rest: np.ndarray, c: np.ndarray,
@@ -471,8 +546,21 @@ def _cut_level(field: BlobField, v: np.ndarray, f: np.ndarray, rest: np.ndarray,
     # Snap: a crease point close to an edge end moves that vertex instead.
     w = v[ce[:, 1]] - v[ce[:, 0]]
     s = np.einsum("ij,ij->i", pts - v[ce[:, 0]], w) / np.einsum("ij,ij->i", w, w)
-    near_a = found & (s < SNAP) & ~locked[ce[:, 0]]
-    near_b = found & (s > 1.0 - SNAP) & ~locked[ce[:, 1]]
+    near_a = found & (s < SNAP)
+    near_b = found & (s > 1.0 - SNAP)
+    # A locked end (on another crease) close to this crease is taken as on it: cutting
+    # there would make a sliver. The triangles then cross this crease by a little, which
+    # the error measurement sees and refinement reduces.
+    keep = np.concatenate([ce[found & (s < KEEP) & locked[ce[:, 0]], 0],
+                           ce[found & (s > 1.0 - KEEP) & locked[ce[:, 1]], 1]])
+    if len(keep):
+        cls[keep] = 0
+        still = (cls[ce[:, 0]] * cls[ce[:, 1]]) < 0
+        cut[np.nonzero(cut)[0][~still]] = False
+        ce, pts, found, s = ce[still], pts[still], found[still], s[still]
+        near_a, near_b = near_a[still], near_b[still]
+    near_a &= ~locked[ce[:, 0]]
+    near_b &= ~locked[ce[:, 1]]
     cand_v = np.concatenate([ce[near_a, 0], ce[near_b, 1]])
     if len(cand_v):
         cand_p = np.concatenate([pts[near_a], pts[near_b]])
@@ -511,58 +599,143 @@ def _cut_level(field: BlobField, v: np.ndarray, f: np.ndarray, rest: np.ndarray,
 # error measurement
 # ------------------------------------------------------------------------------------------
 
-def triangle_samples(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sample points of every triangle where its deviation from a curved surface peaks:
-    centroid, circumcentre (if inside; else the midpoint of the longest edge) and the three
-    edge midpoints. Returns points (S, 3) and the face of each sample (S,)."""
-    A, B, C = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    a2 = np.einsum("ij,ij->i", B - C, B - C)
-    b2 = np.einsum("ij,ij->i", C - A, C - A)
-    c2 = np.einsum("ij,ij->i", A - B, A - B)
-    w = np.stack([a2 * (b2 + c2 - a2), b2 * (c2 + a2 - b2), c2 * (a2 + b2 - c2)], axis=1)
-    acute = (w > 0).all(axis=1)
-    ws = w.sum(axis=1, keepdims=True)
-    circ = (w[:, :1] * A + w[:, 1:2] * B + w[:, 2:] * C) / np.where(ws > 0, ws, 1.0)
-    longest = np.argmax(np.stack([a2, b2, c2], axis=1), axis=1)
-    mids = np.stack([(B + C) / 2, (C + A) / 2, (A + B) / 2], axis=1)
-    circ = np.where(acute[:, None], circ, mids[np.arange(len(f)), longest])
-    pts = np.concatenate([(A + B + C) / 3, circ, mids.reshape(-1, 3)])
-    face = np.concatenate([np.arange(len(f))] * 2 + [np.repeat(np.arange(len(f)), 3)])
-    return pts, face
-
-
 def measure_error(field: BlobField, v: np.ndarray, f: np.ndarray, h: float) -> tuple[float, np.ndarray]:
     """Largest sampled distance from the triangles to the surface, and per face.
 
-    Each sample's distance is the distance to the surface point found along the gradient
-    line through it, an upper bound of its true distance to the surface. A sample with no
-    surface point within 2 h along that line counts as 2 h."""
+    Each sample's distance is that to the surface point found along the gradient line
+    through it: an upper bound of its distance to the surface. Samples per triangle:
+
+    * the three edge midpoints. The signed deviation of a triangle whose corners lie on a
+      smooth surface is, to second order, ``4 (d_ab l_a l_b + d_bc l_b l_c + d_ca l_c l_a)``
+      in barycentric coordinates l, with d the deviations at the midpoints;
+    * the maximum of that quadratic model inside the triangle (the circumcentre for a
+      sphere), or the centroid when the maximum is on the boundary;
+    * ``tutorial`` field: five points along each zone boundary crossing the triangle (the
+      surface has a crease there, where the largest deviation of such a triangle is).
+
+    A sample with no surface point within 2 h along its line counts as 2 h; the root
+    finding tolerance (1e-4 h) is added."""
     if len(f) == 0:
         return 0.0, np.zeros(0)
-    pts, face = triangle_samples(v, f)
-    return _sample_error(field, pts, face, len(f), h)
-
-
-def _sample_error(field: BlobField, pts: np.ndarray, face: np.ndarray, nf: int, h: float
-                  ) -> tuple[float, np.ndarray]:
-    n, slope = _direction(field, pts)
-    tol = 1e-4 * h
-    t, found = _root_along(field, pts, n, slope, h, tol)
-    dist = np.where(found, np.abs(t) + tol, 2.0 * h)
-    per_face = np.zeros(nf)
-    np.maximum.at(per_face, face, dist)
+    A, B, C = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    edges, edge_of = _edges(f)  # each edge midpoint once
+    d_mid = _signed_distance(field, 0.5 * (v[edges[:, 0]] + v[edges[:, 1]]), h)[edge_of]
+    dab, dbc, dca = d_mid[:, 0], d_mid[:, 1], d_mid[:, 2]
+    lam = _quadratic_max(dab, dbc, dca)
+    inner = lam[:, :1] * A + lam[:, 1:2] * B + lam[:, 2:] * C
+    per_face = np.maximum(np.maximum(np.abs(dab), np.abs(dbc)), np.abs(dca))
+    per_face = np.maximum(per_face, np.abs(_signed_distance(field, inner, h)))
+    if field.kind == "tutorial":
+        pts, face = _crease_samples(field, A, B, C)
+        # Triangles with a corner on a crease are not on one smooth piece either (their
+        # edge along the crease is a chord that dips into the next zone): sample them on a
+        # finer barycentric grid.
+        near = np.zeros(len(f), dtype=bool)
+        for i in range(len(field.centers)):
+            for P in (A, B, C):
+                k = 10.0 / np.maximum(field.sqdist(P, i), 1e-30)
+                j = np.rint(k)
+                near |= (np.abs(k - j) <= 1e-6 * j) & (j >= 1) & (j <= 9)
+        rows = np.nonzero(near)[0]
+        grid = [(1, 3), (3, 1)]
+        extra = [(w0 * A[rows] + w1 * B[rows]) / 4 for w0, w1 in grid] \
+            + [(w0 * B[rows] + w1 * C[rows]) / 4 for w0, w1 in grid] \
+            + [(w0 * C[rows] + w1 * A[rows]) / 4 for w0, w1 in grid] \
+            + [(2 * A[rows] + B[rows] + C[rows]) / 4, (A[rows] + 2 * B[rows] + C[rows]) / 4,
+               (A[rows] + B[rows] + 2 * C[rows]) / 4]
+        pts = np.concatenate([pts] + extra)
+        face = np.concatenate([face] + [rows] * len(extra))
+        if len(pts):
+            np.maximum.at(per_face, face, np.abs(_signed_distance(field, pts, h)))
     return float(per_face.max()), per_face
+
+
+def _signed_distance(field: BlobField, p: np.ndarray, h: float) -> np.ndarray:
+    """Distance along the gradient line to the surface, positive outside, plus tolerance;
+    2 h where none was found."""
+    n, slope = _direction(field, p)
+    tol = 1e-4 * h
+    t, found = _root_along(field, p, n, slope, h, tol)
+    return np.where(found, -t + np.sign(-t) * tol, 2.0 * h)
+
+
+def _quadratic_max(dab: np.ndarray, dbc: np.ndarray, dca: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of the critical point of q = dab la lb + dbc lb lc + dca lc la
+    on the plane la + lb + lc = 1 where it lies inside the triangle, else the centroid. (For
+    a sphere, d ~ squared edge length and this is the circumcentre's formula.)"""
+    lam = np.stack([dbc * (dab + dca - dbc), dca * (dab + dbc - dca), dab * (dbc + dca - dab)],
+                   axis=1)
+    s = lam.sum(axis=1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = lam / s
+    good = np.isfinite(lam).all(axis=1) & (lam >= 0).all(axis=1)
+    lam[~good] = 1.0 / 3.0
+    return lam
+
+
+def _crease_samples(field: BlobField, A: np.ndarray, B: np.ndarray, C: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Points along the zone boundaries (creases of the zone field) that cross triangles:
+    for each source, the boundary between the lowest zone index of a triangle's corners and
+    the next, where it cuts two edges: both cut points and three points between them."""
+    pts, faces = [], []
+    corners = (A, B, C)
+    for i in range(len(field.centers)):
+        x = [field.sqdist(P, i) for P in corners]
+        q = [zone_index(xk) for xk in x]
+        cross = (q[0] != q[1]) | (q[1] != q[2])
+        if not cross.any():
+            continue
+        rows = np.nonzero(cross)[0]
+        qlo = np.minimum(np.minimum(q[0], q[1]), q[2])[rows]
+        bound = 10.0 / (qlo + 1.0)          # x of the boundary above the lowest zone
+        side = [x[k][rows] < bound for k in range(3)]
+        cut = []
+        for k in range(3):                  # edge k: corner k -> corner k+1
+            a, b = corners[k][rows], corners[(k + 1) % 3][rows]
+            has = side[k] != side[(k + 1) % 3]
+            cut.append((has, _sphere_crossing(a, b, field.centers[i],
+                                              field.radius * np.sqrt(bound))))
+        # the two cut edges of each triangle
+        p = np.zeros((len(rows), 2, 3))
+        cnt = np.zeros(len(rows), dtype=np.intp)
+        for has, point in cut:
+            sel = has & (cnt < 2)
+            p[sel, cnt[sel]] = point[sel]
+            cnt += sel
+        two = cnt == 2
+        p0, p1 = p[two, 0], p[two, 1]
+        for w in (0.0, 0.25, 0.5, 0.75, 1.0):
+            pts.append(p0 + w * (p1 - p0))
+            faces.append(rows[two])
+    if not pts:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.intp)
+    return np.concatenate(pts), np.concatenate(faces)
+
+
+def _sphere_crossing(a: np.ndarray, b: np.ndarray, c: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Where segments a-b cross the sphere |p - c| = r (one end inside, one outside)."""
+    u, w = a - c, b - a
+    qa = np.einsum("ij,ij->i", w, w)
+    qb = 2.0 * np.einsum("ij,ij->i", u, w)
+    qc = np.einsum("ij,ij->i", u, u) - r * r
+    disc = np.sqrt(np.maximum(qb * qb - 4.0 * qa * qc, 0.0))
+    qa = np.where(qa > 0, qa, 1.0)
+    s1 = (-qb - disc) / (2.0 * qa)
+    s2 = (-qb + disc) / (2.0 * qa)
+    s = np.where((s1 >= 0) & (s1 <= 1), s1, s2)
+    return a + np.clip(s, 0.0, 1.0)[:, None] * w
 
 
 # ------------------------------------------------------------------------------------------
 # the builder
 # ------------------------------------------------------------------------------------------
 
-def tessellate(field: BlobField, h: float, max_points: int = 60_000_000) -> tuple[np.ndarray, np.ndarray, dict]:
+def tessellate(field: BlobField, h: float) -> tuple[np.ndarray, np.ndarray, dict]:
     """One pass at cell size h: vertices on the surface, faces, and an info dict."""
     timings = {}
     t0 = time.perf_counter()
-    v, f, info = _marching_cubes(field, h, max_points)
+    v, f, info = _marching_cubes(field, h)
     timings["marching_cubes"] = time.perf_counter() - t0
     if len(f) == 0:
         info.update(timings=timings, unprojected=0, creases_lost=0)
@@ -577,7 +750,8 @@ def tessellate(field: BlobField, h: float, max_points: int = 60_000_000) -> tupl
     info["creases_lost"] = 0
     if field.kind == "tutorial":
         t0 = time.perf_counter()
-        v, f, _, info["creases_lost"] = _cut_creases(field, v, f, h)
+        v, f, info["creases_lost"] = _cut_creases(field, v, f, h)
+        v, f, info["collapsed"] = _collapse_slivers(field, v, f, MIN_ANGLE_DEG, h)
         timings["creases"] = time.perf_counter() - t0
     info["timings"] = timings
     return v, f, info
@@ -606,8 +780,10 @@ def _crease_of_edges(field: BlobField, a: np.ndarray, b: np.ndarray) -> tuple[np
 
 
 def _midpoints_on_surface(field: BlobField, a: np.ndarray, b: np.ndarray, h: float) -> np.ndarray:
-    """Midpoints of edges a-b moved onto the surface: along the gradient, or for an edge on
-    a crease, onto the crease curve (radially onto the zone sphere, then along it)."""
+    """Points splitting edges a-b, on the surface: the midpoint moved along the gradient;
+    for an edge on a crease, onto the crease curve (radially onto the zone sphere, then
+    along it); for an edge crossing a zone boundary in its middle half, the crease point
+    on it (so that refinement also cuts along creases)."""
     mid = 0.5 * (a + b)
     out, _ = _onto_surface(field, mid, h)
     src, rad = _crease_of_edges(field, a, b)
@@ -618,6 +794,30 @@ def _midpoints_on_surface(field: BlobField, a: np.ndarray, b: np.ndarray, h: flo
         q = c + rad[sel, None] * u / np.linalg.norm(u, axis=1, keepdims=True)
         pts, found = _crease_points_from(field, q, c, rad[sel], h)
         out[sel[found]] = pts[found]
+    if field.kind != "tutorial":
+        return out
+    free = src < 0
+    for i in range(len(field.centers)):
+        xa, xb = field.sqdist(a, i), field.sqdist(b, i)
+        qa, qb = zone_index(xa), zone_index(xb)
+        rows = np.nonzero(free & (qa != qb))[0]
+        if not len(rows):
+            continue
+        bound = 10.0 / (np.minimum(qa, qb)[rows] + 1.0)
+        r = field.radius * np.sqrt(bound)
+        cross = _sphere_crossing(a[rows], b[rows], field.centers[i], r)
+        w = b[rows] - a[rows]
+        t = np.einsum("ij,ij->i", cross - a[rows], w) / np.einsum("ij,ij->i", w, w)
+        mid_half = (t > 0.25) & (t < 0.75)
+        rows, cross, r = rows[mid_half], cross[mid_half], r[mid_half]
+        if len(rows):
+            pts, found = _crease_points_from(field, cross, field.centers[i], r, h)
+            # where the crease runs along the edge its point can be far off: keep the midpoint
+            near = np.linalg.norm(pts - cross, axis=1) < 0.25 * np.sqrt(
+                np.einsum("ij,ij->i", w[mid_half], w[mid_half]))
+            ok = found & near
+            out[rows[ok]] = pts[ok]
+            free[rows[ok]] = False
     return out
 
 
@@ -684,65 +884,49 @@ def initial_cell_size(radius: float, max_error: float) -> float:
 
 def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: float | None = None,
                     *, normals: str = "exact", cell_size: float | None = None,
-                    max_passes: int = 8, max_points: int = 60_000_000,
+                    max_passes: int = 40, max_triangles: int = 20_000_000,
                     log: Callable[[str], None] | None = None) -> BlobMesh:
     """Triangle mesh of the metaball surface ``sum_i f(|p - c_i|^2 / R^2) = 1``.
 
-    ``centers`` (N, 3), ``radius`` R > 0, ``field`` 'tutorial' or 'exact'. Give ``max_error``
-    (world units, > 0): the mesh is refined until the measured distance from its triangles to
-    the surface is below it. Or give ``cell_size`` alone for one unrefined pass (``max_error``
-    then only bounds nothing and the achieved error is still measured). ``normals``:
-    'exact' (gradient of sum R^2/d^2, the tutorial's shading), 'field' (gradient of the chosen
-    field; mean of both sides on the zone field's creases) or 'flat' (no vertex normals).
+    ``centers`` (N, 3), ``radius`` R > 0, ``field`` 'tutorial' or 'exact', ``max_error`` > 0
+    (same units as the centres): the mesh is refined until the measured distance from its
+    triangles to the surface is at most ``max_error`` (or ``max_passes`` refinement passes or
+    ``max_triangles`` are reached; then ``achieved_error`` says so). With ``cell_size`` the
+    marching-cubes cell is that instead of the one derived from ``max_error``, and
+    ``max_error`` may be None: one pass without refinement, error measured (for studies of
+    convergence). ``normals``: 'exact' (gradient of sum R^2/d^2, the tutorial's shading),
+    'field' (gradient of the chosen field; the mean of both sides on the zone field's
+    creases) or 'flat' (no vertex normals). ``log`` receives progress lines.
     Raises :class:`BlobMeshError` naming the bad parameter."""
     centers, radius, max_error = _validate(centers, radius, field, max_error, normals, cell_size)
     fld = BlobField(centers, radius, field)
-    h = cell_size if cell_size is not None else initial_cell_size(radius, max_error)
     t_start = time.perf_counter()
-    v, f, info = tessellate(fld, h, max_points)
+    if cell_size is not None:
+        h = cell_size
+    else:
+        h = initial_cell_size(radius, max_error)
+        # keep the marching-cubes grid below MAX_GRID_POINTS; refinement does the rest
+        extent = float((centers.max(axis=0) - centers.min(axis=0)).max()) \
+            + 2.0 * math.sqrt(fld.support_x()) * radius
+        h = max(h, extent / MAX_GRID_POINTS ** (1.0 / 3.0))
+    v, f, info = tessellate(fld, h)
     err, per_face = measure_error(fld, v, f, h)
     passes = 0
     target = max_error if cell_size is None else math.inf
-    while err > target and passes < max_passes:
+    while err > target and passes < max_passes and len(f) < max_triangles:
         passes += 1
         v, f, kept = refine(fld, v, f, per_face > target, h)
-        per_face = np.concatenate([per_face[kept], np.full(len(f) - int(kept.sum()), np.nan)])
-        if fld.kind == "tutorial":
-            # midpoints moved onto the surface can cross a crease: cut again
-            before, errors = _face_keys(f), per_face
-            v, f, dirty, lost = _cut_creases(fld, v, f, h)
-            info["creases_lost"] += lost
-            per_face = _lookup(_face_keys(f), before, errors)
-            per_face[dirty[f[:, 0]] | dirty[f[:, 1]] | dirty[f[:, 2]]] = np.nan
-        todo = np.isnan(per_face)
-        per_face[todo] = measure_error(fld, v, f[todo], h)[1]
+        nk = int(kept.sum())
+        per_face = np.concatenate([per_face[kept], measure_error(fld, v, f[nk:], h)[1]])
         err = float(per_face.max())
         if log is not None:
-            log(f"blob: refinement pass {passes}: {len(f)} triangles, error {err:.4g}")
+            log(f"refinement pass {passes}: {len(f)} triangles, error {err:.4g}")
     v, f = _compact(v, f)
     nrm = _vertex_normals(fld, v, normals)
     info.update(cell_size=h, refine_passes=passes, triangles=len(f), vertices=len(v),
                 min_angle_deg=float(min_angles_deg(v, f).min()) if len(f) else 180.0,
                 seconds=time.perf_counter() - t_start)
     return BlobMesh(v, f, nrm, err, info)
-
-
-def _face_keys(f: np.ndarray) -> np.ndarray:
-    """A key per face, the same for the same three vertices in any order."""
-    s = np.sort(f, axis=1).astype(np.int64)
-    n = int(f.max()) + 1 if len(f) else 1
-    return (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
-
-
-def _lookup(keys: np.ndarray, known: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """values of the faces with ``keys`` among ``known`` keys; NaN for the unknown."""
-    order = np.argsort(known)
-    pos = np.clip(np.searchsorted(known[order], keys), 0, max(len(known) - 1, 0))
-    out = np.full(len(keys), np.nan)
-    if len(known):
-        hit = known[order][pos] == keys
-        out[hit] = values[order][pos[hit]]
-    return out
 
 
 def _compact(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
