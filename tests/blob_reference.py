@@ -143,8 +143,8 @@ def distance_to_surface(p, centers, radius, kind):
 def surface_samples(centers, radius, kind, n_lines, rng):
     """Points on the surface: every crossing of random lines through the blob's bounding
     box (a sampling that reaches every part of the surface)."""
-    lo = centers.min(0) - 3.2 * radius
-    hi = centers.max(0) + 3.2 * radius
+    lo = centers.min(0) - 1.2 * radius
+    hi = centers.max(0) + 1.2 * radius
     p = lo + (hi - lo) * rng.random((n_lines, 3))
     d = rng.normal(size=(n_lines, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)

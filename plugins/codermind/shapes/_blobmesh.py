@@ -125,7 +125,10 @@ def _root_on_path(field: BlobField, path: Callable[[np.ndarray, np.ndarray], np.
     lo, hi = t0 - d, t0 + d
     glo, ghi = g(rows, lo), g(rows, hi)
     ok = (glo > 0) & (ghi < 0) & (np.abs(t0) < 2.0 * h)
-    todo = np.nonzero(~ok)[0]
+    # already on the surface (e.g. in a crease, where F - 1 may not change sign nearby)
+    on = ~ok & (np.abs(g0) <= tol * slope)
+    lo[on], hi[on], glo[on], ghi[on] = 0.0, 0.0, 0.0, 0.0
+    todo = np.nonzero(~ok & ~on)[0]
     for k in range(4):
         if len(todo) == 0:
             break
@@ -142,13 +145,15 @@ def _root_on_path(field: BlobField, path: Callable[[np.ndarray, np.ndarray], np.
         ok[sel] = True
         todo = todo[~hit]
     t = np.zeros(m)
+    ok_all = ok | on
+    ok &= ~on
     if ok.all():
         t = _illinois(g, lo, hi, glo, ghi, tol, tol * slope)
     elif ok.any():
         sel = np.nonzero(ok)[0]
         t[sel] = _illinois(lambda i, tt: g(sel[i], tt), lo[sel], hi[sel], glo[sel], ghi[sel],
                            tol, tol * slope[sel])
-    return t, ok
+    return t, ok_all
 
 
 def _root_along(field: BlobField, p: np.ndarray, n: np.ndarray, slope: np.ndarray, h: float,
@@ -158,9 +163,27 @@ def _root_along(field: BlobField, p: np.ndarray, n: np.ndarray, slope: np.ndarra
                          slope, h, tol)
 
 
-def _onto_surface(field: BlobField, p: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+def _along_normals(field: BlobField, p: np.ndarray, h: float, tol: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Root along the field's gradient line through each point; where none is found (near
+    a concave crease of the zone field the line can miss the surface), along the smooth
+    gradient of sum R^2/d^2 instead. Returns (t, directions, found)."""
     n, slope = _direction(field, p)
-    t, found = _root_along(field, p, n, slope, h, 1e-7 * h)
+    t, found = _root_along(field, p, n, slope, h, tol)
+    if not found.all():
+        sel = np.nonzero(~found)[0]
+        g = field.inverse_square_gradient(p[sel])
+        n2 = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+        slope2 = np.abs(np.einsum("ij,ij->i", field.gradient(p[sel]), n2))
+        t2, found2 = _root_along(field, p[sel], n2, slope2, h, tol)
+        n[sel[found2]] = n2[found2]
+        t[sel[found2]] = t2[found2]
+        found[sel[found2]] = True
+    return t, n, found
+
+
+def _onto_surface(field: BlobField, p: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    t, n, found = _along_normals(field, p, h, 1e-7 * h)
     return p + t[:, None] * n, found
 
 
@@ -653,9 +676,8 @@ def measure_error(field: BlobField, v: np.ndarray, f: np.ndarray, h: float) -> t
 def _signed_distance(field: BlobField, p: np.ndarray, h: float) -> np.ndarray:
     """Distance along the gradient line to the surface, positive outside, plus tolerance;
     2 h where none was found."""
-    n, slope = _direction(field, p)
     tol = 1e-4 * h
-    t, found = _root_along(field, p, n, slope, h, tol)
+    t, _, found = _along_normals(field, p, h, tol)
     return np.where(found, -t + np.sign(-t) * tol, 2.0 * h)
 
 
@@ -884,7 +906,7 @@ def initial_cell_size(radius: float, max_error: float) -> float:
 
 def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: float | None = None,
                     *, normals: str = "exact", cell_size: float | None = None,
-                    max_passes: int = 40, max_triangles: int = 20_000_000,
+                    max_passes: int = 40, max_triangles: int = 5_000_000,
                     log: Callable[[str], None] | None = None) -> BlobMesh:
     """Triangle mesh of the metaball surface ``sum_i f(|p - c_i|^2 / R^2) = 1``.
 
