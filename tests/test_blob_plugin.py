@@ -131,7 +131,8 @@ def exact_normal(p, centers, kind):
 
 @pytest.mark.parametrize("kind", ["tutorial", "exact"])
 def test_ray_hits_agree_with_an_exact_solver(llvm, kind):
-    """Rays at the mesh against rays at the true surface (zone method / polynomial roots).
+    """Rays at the mesh against rays at the true surface (zone method / polynomial roots),
+    aimed at surface points, half of them at 1 to 6 degrees from the tangent plane.
     What is compared, with e = max_error:
     * every hit point on the mesh lies within e of the true surface, and every true hit
       point within e of the mesh (so a ray may miss one and hit the other only where it
@@ -145,7 +146,7 @@ def test_ray_hits_agree_with_an_exact_solver(llvm, kind):
     scene = mi.load_dict({"type": "scene", "blob": blob_dict(mi, PAGE4, max_error=e, field=kind)})
     v, f = mesh_arrays(scene.shapes()[0])
     rng = np.random.default_rng(7)
-    targets = ref.surface_samples(PAGE4, R, kind, 400, rng)[:600]
+    targets = ref.surface_samples(PAGE4, R, kind, 500, rng)[:800]
     n_t = exact_normal(targets, PAGE4, kind)
     # random directions at the surface, half of them grazing (1 to 6 degrees from tangent)
     d = rng.normal(size=targets.shape)
@@ -177,10 +178,13 @@ def test_ray_hits_agree_with_an_exact_solver(llvm, kind):
     cos = np.abs(np.einsum("ij,ij->i", n_hit, d[both]))
     steep = cos > 0.3
     sep = np.abs(t_mesh[both] - t_true[both]) * cos
-    assert steep.sum() > 200 and (~steep).sum() > 100
+    assert steep.sum() > 200 and (~steep).sum() > 200
     assert sep[steep].max() <= e + slack
-    # disagreements on hit or miss only for grazing rays
-    assert not ((hit_m != hit_t) & ~grazing).any()
+    # one hit and one miss only for rays that graze the surface (within 6 degrees)
+    odd = np.nonzero(hit_m != hit_t)[0]
+    t_any = np.where(hit_t[odd], t_true[odd], t_mesh[odd])
+    n_odd = exact_normal(o[odd] + t_any[:, None] * d[odd], PAGE4, kind)
+    assert (np.abs(np.einsum("ij,ij->i", n_odd, d[odd])) < np.sin(np.radians(6))).all()
 
 
 def test_sphere_silhouette_area(llvm):

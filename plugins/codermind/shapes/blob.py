@@ -123,10 +123,15 @@ def blob(props: mi.Properties) -> mi.Mesh:
 
     out = mi.Mesh(props.id() or "blob", len(v), len(f), props, has_vertex_normals=len(n) > 0)
     params = mi.traverse(out)
-    params["vertex_positions"] = mi.Float(v.astype(np.float32).ravel())
-    params["faces"] = mi.UInt32(f.astype(np.uint32).ravel())
+
+    def buffer(key: str, a: np.ndarray, dtype) -> None:
+        # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
+        params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
+
+    buffer("vertex_positions", v, np.float32)
+    buffer("faces", f, np.uint32)
     if len(n):  # set in the same update as the positions, or Mitsuba recomputes them
-        params["vertex_normals"] = mi.Float(n.astype(np.float32).ravel())
+        buffer("vertex_normals", n, np.float32)
     params.update()
     return out
 
