@@ -14,7 +14,7 @@ from codermind.shapes._blobmesh import BlobMeshError, build_blob_mesh, min_angle
 
 R = 80.0
 D_CRIT = 2 * np.sqrt(2) * R  # two sources separate at this distance (both fields)
-MIN_ANGLE = 0.1              # degrees: a triangle with a smaller angle counts as a sliver
+MIN_ANGLE = 0.5              # degrees: a triangle with a smaller angle counts as a sliver
 
 CONFIGS = {
     "single": np.array([[10.0, -20.0, 30.0]]),
