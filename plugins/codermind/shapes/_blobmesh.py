@@ -264,13 +264,8 @@ def _clean_slivers(field: BlobField, v: np.ndarray, f: np.ndarray, min_angle: fl
         bad = np.nonzero(ang < min_angle)[0]
         if not len(bad):
             break
-        edges, edge_of = _edges(f)
-        # the (up to) two faces of every edge
-        order = np.argsort(edge_of.ravel(), kind="stable")
-        first = np.searchsorted(edge_of.ravel()[order], np.arange(len(edges) + 1))
-        inc = np.argsort(f.ravel(), kind="stable")
+        inc = np.argsort(f.ravel(), kind="stable")               # vertex -> faces
         vstart = np.searchsorted(f.ravel()[inc], np.arange(len(v) + 1))
-        edge_key = set((edges[:, 0] * len(v) + edges[:, 1]).tolist())
         new_f = f.copy()
         alive = np.ones(len(f), dtype=bool)
         busy = np.zeros(len(v), dtype=bool)
@@ -294,8 +289,8 @@ def _clean_slivers(field: BlobField, v: np.ndarray, f: np.ndarray, min_angle: fl
                     field, v, new_f, alive, busy, changed, locked, inc, vstart, outward_ok, h,
                     int(tri[k_short]), int(tri[(k_short + 1) % 3])):
                 pass                                              # needle: collapsed
-            elif not _flip(v, new_f, changed, busy, edge_key, outward_ok, order, first,
-                           edge_of, alive, ang, t, k_long):
+            elif not _flip(v, new_f, changed, busy, outward_ok, inc, vstart, alive, ang, t,
+                           k_long):
                 continue                                          # cap: flipped, or nothing
             n_round += 1
         if n_round == 0:
@@ -348,24 +343,26 @@ def _collapse(field, v, f, alive, busy, changed, locked, inc, vstart, outward_ok
     return True
 
 
-def _flip(v, f, changed, busy, edge_key, outward_ok, order, first, edge_of, alive, ang, t,
-          k_long) -> bool:
+def _flip(v, f, changed, busy, outward_ok, inc, vstart, alive, ang, t, k_long) -> bool:
     """Flip the longest edge of face t (see _clean_slivers); False where not allowed."""
-    e = edge_of[t, k_long]
-    pair = order[first[e]:first[e + 1]] // 3
-    if len(pair) != 2:
-        return False
-    u = int(pair[0] if pair[1] == t else pair[1])
-    if not alive[u] or busy[f[u]].any():
-        return False
     tri = f[t]
     a, b, c = int(tri[k_long]), int(tri[(k_long + 1) % 3]), int(tri[(k_long + 2) % 3])
+
+    def faces_of(x):
+        fx = inc[vstart[x]:vstart[x + 1]] // 3
+        return fx[alive[fx]]
+
+    pair = np.setdiff1d(np.intersect1d(faces_of(a), faces_of(b)), [t])
+    if len(pair) != 1:
+        return False
+    u = int(pair[0])
+    if busy[f[u]].any():
+        return False
     d = [int(x) for x in f[u] if x != a and x != b]
-    if len(d) != 1 or {a, b} - set(f[u].tolist()):
-        return False                                              # f[u] changed this round
+    if len(d) != 1:
+        return False
     d = d[0]
-    n = len(v)
-    if min(c, d) * n + max(c, d) in edge_key:
+    if (f[faces_of(c)] == d).any():
         return False                                              # edge c-d exists already
     cand = np.array([[c, a, d], [c, d, b]])
     before = min(ang[t], min_angles_deg(v, f[[u]]).min())
@@ -374,7 +371,6 @@ def _flip(v, f, changed, busy, edge_key, outward_ok, order, first, edge_of, aliv
     f[t], f[u] = cand[0], cand[1]
     changed[[t, u]] = True
     busy[[a, b, c, d]] = True
-    edge_key.add(min(c, d) * n + max(c, d))
     return True
 
 
