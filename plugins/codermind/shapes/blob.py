@@ -91,9 +91,10 @@ def blob(props: mi.Properties) -> mi.Mesh:
     if not np.allclose(matrix[3], [0, 0, 0, 1]) or not np.isfinite(matrix).all():
         raise ValueError("blob: 'to_world' must be a finite affine transform")
     linear = matrix[:3, :3]
-    scale = float(np.linalg.svd(linear, compute_uv=False)[0])
-    if scale <= 0:
+    sv = np.linalg.svd(linear, compute_uv=False)
+    if sv[-1] <= 1e-12 * sv[0]:
         raise ValueError("blob: 'to_world' is singular")
+    scale = float(sv[0])  # largest stretch: world error <= scale * object-space error
     if radius is None:
         raise ValueError("blob: 'radius' is required")
     max_error = _float(props, "max_error", None)
@@ -117,7 +118,8 @@ def blob(props: mi.Properties) -> mi.Mesh:
         n /= np.linalg.norm(n, axis=1, keepdims=True)
     achieved = mesh.achieved_error * scale
     level = mi.LogLevel.Info if achieved <= max_error else mi.LogLevel.Warn
-    mi.Log(level, f"blob: {len(f)} triangles, error {achieved:.3g} (max_error {max_error:.3g}, "
+    mi.Log(level, f"{len(f)} triangles, measured error {achieved:.4g} "
+                  f"({'within' if achieved <= max_error else 'ABOVE'} max_error {max_error:.4g}, "
                   f"world units), cell size {mesh.info['cell_size'] * scale:.3g}, "
                   f"{mesh.info['refine_passes']} refinement passes, {seconds:.2f} s")
 
