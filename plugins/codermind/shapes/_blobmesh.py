@@ -454,16 +454,19 @@ def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: 
     # cent low (seen up to 4% in random tests): refine to 95% of max_error there.
     target = max_error * (TUTORIAL_MARGIN if field == "tutorial" else 1.0) \
         if cell_size is None else math.inf
-    while err > target and passes < max_passes and len(f) < max_triangles:
-        passes += 1
-        v, f, kept = refine(fld, v, f, per_face > target, h)
-        nk = int(kept.sum())
-        per_face = np.concatenate([per_face[kept], measure_error(fld, v, f[nk:], h)[1]])
-        err = float(per_face.max())
-        if log is not None:
-            log(f"refinement pass {passes}: {len(f)} triangles, error {err:.4g}")
-    # refinement can leave flat triangles along creases: clean, measure again, refine again
-    for _ in range(3):
+    # refine; then clean slivers (refinement can leave flat triangles along creases),
+    # measure what changed, and refine again if needed
+    for cleanups in range(4):
+        while err > target and passes < max_passes and len(f) < max_triangles:
+            passes += 1
+            v, f, kept = refine(fld, v, f, per_face > target, h)
+            nk = int(kept.sum())
+            per_face = np.concatenate([per_face[kept], measure_error(fld, v, f[nk:], h)[1]])
+            err = float(per_face.max())
+            if log is not None:
+                log(f"refinement pass {passes}: {len(f)} triangles, error {err:.4g}")
+        if cleanups == 3:
+            break
         v, f, kept, changed, n_ops = clean_slivers(fld, v, f, MIN_ANGLE_DEG, h)
         if not n_ops:
             break
@@ -471,12 +474,6 @@ def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: 
         per_face = per_face[kept]
         per_face[changed] = measure_error(fld, v, f[changed], h)[1]
         err = float(per_face.max())
-        while err > target and passes < max_passes and len(f) < max_triangles:
-            passes += 1
-            v, f, kept = refine(fld, v, f, per_face > target, h)
-            nk = int(kept.sum())
-            per_face = np.concatenate([per_face[kept], measure_error(fld, v, f[nk:], h)[1]])
-            err = float(per_face.max())
     v, f = _compact(v, f)
     nrm = _vertex_normals(fld, v, normals)
     info.update(cell_size=h, refine_passes=passes, triangles=len(f), vertices=len(v),
