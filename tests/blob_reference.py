@@ -220,7 +220,7 @@ def sample_triangles(vertices, faces, per_face, rng):
     return p.reshape(-1, 3), np.repeat(np.arange(len(faces)), per_face)
 
 
-def distance_to_surface_cone(p, centers, radius, kind, reach, rng, n_dirs=128, cone_deg=80.0):
+def distance_to_surface_cone(p, centers, radius, kind, reach, rng, n_dirs=256, cone_deg=85.0):
     """Tighter upper bound for a few points: the nearest surface point along any of
     ``n_dirs`` lines in a cone around the exact field's gradient (at a crease of the zone
     field the nearest surface point is not along the gradient)."""

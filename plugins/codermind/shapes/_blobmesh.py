@@ -228,8 +228,8 @@ def _quadratic_max(dab: np.ndarray, dbc: np.ndarray, dca: np.ndarray) -> np.ndar
 def _crease_samples(field: BlobField, A: np.ndarray, B: np.ndarray, C: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Points along the zone boundaries (creases of the zone field) that cross triangles:
-    for each source, the boundary between the lowest zone index of a triangle's corners and
-    the next, where it cuts two edges: both cut points and three points between them."""
+    for each source and each boundary between the zones of a triangle's corners, where it
+    cuts two edges, both cut points and three points between them."""
     pts, faces = [], []
     corners = (A, B, C)
     for i in range(len(field.centers)):
@@ -238,28 +238,26 @@ def _crease_samples(field: BlobField, A: np.ndarray, B: np.ndarray, C: np.ndarra
         cross = (q[0] != q[1]) | (q[1] != q[2])
         if not cross.any():
             continue
-        rows = np.nonzero(cross)[0]
-        qlo = np.minimum(np.minimum(q[0], q[1]), q[2])[rows]
-        bound = 10.0 / (qlo + 1.0)          # x of the boundary above the lowest zone
-        side = [x[k][rows] < bound for k in range(3)]
-        cut = []
-        for k in range(3):                  # edge k: corner k -> corner k+1
-            a, b = corners[k][rows], corners[(k + 1) % 3][rows]
-            has = side[k] != side[(k + 1) % 3]
-            cut.append((has, sphere_crossing(a, b, field.centers[i],
-                                              field.radius * np.sqrt(bound))))
-        # the two cut edges of each triangle
-        p = np.zeros((len(rows), 2, 3))
-        cnt = np.zeros(len(rows), dtype=np.intp)
-        for has, point in cut:
-            sel = has & (cnt < 2)
-            p[sel, cnt[sel]] = point[sel]
-            cnt += sel
-        two = cnt == 2
-        p0, p1 = p[two, 0], p[two, 1]
-        for w in (0.0, 0.25, 0.5, 0.75, 1.0):
-            pts.append(p0 + w * (p1 - p0))
-            faces.append(rows[two])
+        all_rows = np.nonzero(cross)[0]
+        qlo = np.minimum(np.minimum(q[0], q[1]), q[2])[all_rows]
+        qhi = np.maximum(np.maximum(q[0], q[1]), q[2])[all_rows]
+        for j in range(int(qlo.min()), int(qhi.max())):   # boundary x = 10/(j+1)
+            rows = all_rows[(qlo <= j) & (qhi > j)]
+            bound = 10.0 / (j + 1.0)
+            side = [x[k][rows] < bound for k in range(3)]
+            p = np.zeros((len(rows), 2, 3))
+            cnt = np.zeros(len(rows), dtype=np.intp)
+            for k in range(3):                  # edge k: corner k -> corner k+1
+                has = (side[k] != side[(k + 1) % 3]) & (cnt < 2)
+                point = sphere_crossing(corners[k][rows[has]], corners[(k + 1) % 3][rows[has]],
+                                        field.centers[i], field.radius * np.sqrt(bound))
+                p[has, cnt[has]] = point
+                cnt += has
+            two = cnt == 2
+            p0, p1 = p[two, 0], p[two, 1]
+            for w in (0.0, 0.25, 0.5, 0.75, 1.0):
+                pts.append(p0 + w * (p1 - p0))
+                faces.append(rows[two])
     if not pts:
         return np.zeros((0, 3)), np.zeros(0, dtype=np.intp)
     return np.concatenate(pts), np.concatenate(faces)
