@@ -12,7 +12,7 @@ import numpy as np
 
 from ._blobfield import BlobField, zone_index
 from ._blobgeom import mesh_edges, face_normals, on_crease, min_angles_deg
-from ._blobroots import crease_points, onto_surface
+from ._blobroots import crease_points
 
 SNAP = 0.2           # crease cuts closer than SNAP * edge length to a vertex move the vertex
 KEEP = 0.1           # ... or, if that vertex is on another crease, closer than KEEP: no cut
@@ -135,18 +135,19 @@ def _cut_level(field: BlobField, v: np.ndarray, f: np.ndarray, rest: np.ndarray,
     ce = edges[cut]
     pts, found = crease_points(field, v[ce[:, 0]], v[ce[:, 1]], c, r, h)
     lost = int((~found).sum())
-    if lost:  # surface tangent to the sphere there: no crease to follow
-        pts[~found] = onto_surface(field, pts[~found], h)[0]
     # Snap: a crease point close to an edge end moves that vertex instead.
     w = v[ce[:, 1]] - v[ce[:, 0]]
     s = np.einsum("ij,ij->i", pts - v[ce[:, 0]], w) / np.einsum("ij,ij->i", w, w)
     near_a = found & (s < SNAP)
     near_b = found & (s > 1.0 - SNAP)
     # A locked end (on another crease) close to this crease is taken as on it: cutting
-    # there would make a sliver. The triangles then cross this crease by a little, which
-    # the error measurement sees and refinement reduces.
+    # there would make a sliver. So is the nearer end of an edge whose crease point was not
+    # found (where the surface runs along the zone sphere, or several creases meet). The
+    # triangles then cross this crease by a little, which the error measurement sees and
+    # refinement reduces.
     keep = np.concatenate([ce[found & (s < KEEP) & locked[ce[:, 0]], 0],
-                           ce[found & (s > 1.0 - KEEP) & locked[ce[:, 1]], 1]])
+                           ce[found & (s > 1.0 - KEEP) & locked[ce[:, 1]], 1],
+                           np.where(s < 0.5, ce[:, 0], ce[:, 1])[~found]])
     if len(keep):
         cls[keep] = 0
         still = (cls[ce[:, 0]] * cls[ce[:, 1]]) < 0

@@ -7,6 +7,8 @@ import numpy as np
 
 from ._blobfield import BlobField
 
+MAX_SLIVERS = 5000  # per round of clean_slivers (a Python loop)
+
 
 def mesh_edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique undirected edges (E, 2) and, per face corner edge (F, 3), the edge index;
@@ -80,6 +82,7 @@ def clean_slivers(field: BlobField, v: np.ndarray, f: np.ndarray, min_angle: flo
         bad = np.nonzero(ang < min_angle)[0]
         if not len(bad):
             break
+        bad = bad[np.argsort(ang[bad])][:MAX_SLIVERS]
         inc = np.argsort(f.ravel(), kind="stable")               # vertex -> faces
         vstart = np.searchsorted(f.ravel()[inc], np.arange(len(v) + 1))
         new_f = f.copy()

@@ -454,8 +454,13 @@ def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: 
         if cell_size is None else math.inf
     # refine; then clean slivers (refinement can leave flat triangles along creases),
     # measure what changed, and refine again if needed
+    history = []
     for cleanups in range(4):
         while err > target and passes < max_passes and len(f) < max_triangles:
+            history.append(err)
+            if len(history) > 6 and err > 0.9 * history[-7]:
+                info["stalled"] = True  # six passes without progress: a defect refining cannot fix
+                break
             passes += 1
             v, f, kept = refine(fld, v, f, per_face > target, h)
             nk = int(kept.sum())
