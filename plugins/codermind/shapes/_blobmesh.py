@@ -479,10 +479,35 @@ def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: 
         err = float(per_face.max())
     v, f = _compact(v, f)
     nrm = _vertex_normals(fld, v, normals)
+    info["lost_necks"] = lost_necks(fld, v, f)
     info.update(cell_size=h, refine_passes=passes, triangles=len(f), vertices=len(v),
                 min_angle_deg=float(min_angles_deg(v, f).min()) if len(f) else 180.0,
                 seconds=time.perf_counter() - t_start)
     return BlobMesh(v, f, nrm, err, info)
+
+
+def lost_necks(field: BlobField, v: np.ndarray, f: np.ndarray, samples: int = 2001
+               ) -> list[tuple[int, int]]:
+    """Pairs (i, j) of sources that the true surface joins (the field is above 1 all along
+    the segment between them) but that lie in different components of the mesh (judged by
+    each source's nearest vertex): a neck thinner than the marching-cubes cell was lost, and
+    the measured error, which looks from the mesh to the surface, cannot see it."""
+    centers = field.centers
+    if len(centers) < 2 or len(f) == 0:
+        return []
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+    e = mesh_edges(f)[0]
+    graph = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(len(v), len(v)))
+    count, label = connected_components(graph, directed=False)
+    if count == 1:
+        return []
+    owner = label[cKDTree(v).query(centers)[1]]
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    return [(i, j) for i in range(len(centers)) for j in range(i + 1, len(centers))
+            if owner[i] != owner[j]
+            and field.value(centers[i] + t * (centers[j] - centers[i])).min() > 1.0]
 
 
 def _compact(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

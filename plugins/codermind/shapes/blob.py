@@ -122,6 +122,10 @@ def blob(props: mi.Properties) -> mi.Mesh:
                   f"({'within' if achieved <= max_error else 'ABOVE'} max_error {max_error:.4g}, "
                   f"world units), cell size {mesh.info['cell_size'] * scale:.3g}, "
                   f"{mesh.info['refine_passes']} refinement passes, {seconds:.2f} s")
+    for i, j in mesh.info["lost_necks"]:
+        mi.Log(mi.LogLevel.Warn, f"blob: the surface joins center{i} and center{j} by a neck "
+                                 f"thinner than the mesh resolution, which the mesh lost: lower "
+                                 f"max_error (cell size {mesh.info['cell_size'] * scale:.3g})")
 
     out = mi.Mesh(props.id() or "blob", len(v), len(f), props, has_vertex_normals=len(n) > 0)
     params = mi.traverse(out)
