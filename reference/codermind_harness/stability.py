@@ -31,6 +31,8 @@ SWEEPS: dict[str, tuple[str, str, str]] = {
     "fresnel": ("sweep_bsdf", "fresnel",
                 "tutorial BSDF and port Fresnel at total internal reflection and eta = 1"),
     "thin_lens": ("sweep_lens", "thin_lens", "conic camera at zero and huge aperture"),
+    "blob_neck": ("sweep_blob", "blob_neck",
+                  "blob mesher vs neck thickness: topology, watertightness"),
     "zone_grazing": ("sweep_zone", "zone_grazing", "port blob zone method vs grazing rays"),
     "zone_scale": ("sweep_zone", "zone_scale", "port blob zone method vs scene scale"),
     "tone_curve": ("sweep_tone", "tone_curve",
