@@ -191,6 +191,7 @@ def to_json(results: list[SweepResult]) -> str:
     for r in results:
         d = asdict(r)
         d.pop("image")
+        d.pop("series")                 # the curves are in the PNGs; the table has the numbers
         d["passed"] = r.passed
         records.append(d)
     return json.dumps(_jsonable(records), indent=1)
