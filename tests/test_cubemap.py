@@ -396,3 +396,13 @@ def test_sampling_is_finite_for_very_dim_or_bright_maps(llvm, exposure):
     plain = mi.load_dict({"type": "cubemap", **synthetic_faces(mi)})
     ds1, _ = plain.sample_direction(it, mi.Point2f(rng.random((2, n))))
     assert np.allclose(ds.pdf.numpy(), plain.pdf_direction(it, ds).numpy(), rtol=1e-4)
+
+
+def test_an_odd_value_is_quoted_on_the_error_line(llvm, tutorial_dir):
+    """A value with a line break is echoed escaped, so the one-line error still names the
+    parameter (found by the long property run)."""
+    params = faces_dict(tutorial_dir / "page4", mode="sky\nlight")
+    with pytest.raises(RuntimeError) as e:
+        llvm.load_dict(params)
+    last = str(e.value).strip().splitlines()[-1]
+    assert "'mode' must be 'light' or 'background', got 'sky\\nlight'" in last, last

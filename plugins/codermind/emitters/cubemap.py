@@ -128,7 +128,7 @@ class CubeMap(mi.Emitter):
         self.mode = str(props.get("mode", "light"))
         if self.mode not in self.MODES:
             raise ValueError(f"cubemap: 'mode' must be 'light' or 'background', got "
-                             f"'{self.mode}'")
+                             f"{self.mode!r}")
         if self.mode == "background" and "sampling_weight" not in props:
             props["sampling_weight"] = 0.0
         super().__init__(props)

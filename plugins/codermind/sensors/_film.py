@@ -81,9 +81,9 @@ def x_fov(props: mi.Properties, aspect: float, plugin: str) -> float:
             length = float(text[:-2] if text.endswith("mm") else text)
         except ValueError:
             raise ValueError(f"{plugin}: 'focal_length' must look like '50mm', got "
-                             f"'{text}'") from None
+                             f"{text!r}") from None
         if not length > 0:
-            raise ValueError(f"{plugin}: 'focal_length' must be > 0, got '{text}'")
+            raise ValueError(f"{plugin}: 'focal_length' must be > 0, got {text!r}")
         fov = 2.0 * math.degrees(math.atan(math.hypot(36.0, 24.0) / (2.0 * length)))
         axis = "diagonal"
     half_tan = math.tan(math.radians(0.5 * fov))
@@ -94,7 +94,7 @@ def x_fov(props: mi.Properties, aspect: float, plugin: str) -> float:
     if axis == "diagonal":
         return 2.0 * math.degrees(math.atan(half_tan / math.sqrt(1.0 + 1.0 / aspect**2)))
     raise ValueError(f"{plugin}: 'fov_axis' must be one of x, y, diagonal, smaller, larger; "
-                     f"got '{axis}'")
+                     f"got {axis!r}")
 
 
 def to_world_matrix(props: mi.Properties) -> np.ndarray:

@@ -124,7 +124,7 @@ class ConicCamera(mi.Sensor):
         self.x_fov = x_fov(props, size[0] / size[1], "conic")
         self.lens = str(props.get("lens", "disc"))
         if self.lens not in self.LENSES:
-            raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got '{self.lens}'")
+            raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got {self.lens!r}")
         self.near_clip = number(props, "conic", "near_clip", 1e-2)
         self.far_clip = number(props, "conic", "far_clip", 1e4)
         if not self.near_clip <= FLOAT32_MAX:
