@@ -343,6 +343,7 @@ def faces_dict(folder: Path, **override) -> dict:
     ("exposure", "'exposure'"),
     ("mode", "'mode'"),
     ("scale", "'scale'"),
+    ("infinite-exposure", "'exposure'"),
 ])
 def test_bad_input_gives_one_clear_error(llvm, tutorial_dir, tmp_path, case, needle):
     mi = llvm
@@ -361,6 +362,8 @@ def test_bad_input_gives_one_clear_error(llvm, tutorial_dir, tmp_path, case, nee
         params["exposure"] = 0.0
     elif case == "scale":
         params["scale"] = float("nan")
+    elif case == "infinite-exposure":
+        params["exposure"] = float("inf")
     else:
         params["mode"] = "sky"
     with pytest.raises(RuntimeError) as e:

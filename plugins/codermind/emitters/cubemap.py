@@ -141,8 +141,9 @@ class CubeMap(mi.Emitter):
         self.srgb = flag(props, "cubemap", "srgb", False)
         self.exposed = flag(props, "cubemap", "exposed", False)
         self.exposure = number(props, "cubemap", "exposure", 1.0)
-        if not self.exposure > 0:
-            raise ValueError(f"cubemap: 'exposure' must be > 0, got {self.exposure:g}")
+        if not 0 < self.exposure < np.inf:
+            raise ValueError(f"cubemap: 'exposure' must be finite and > 0, got "
+                             f"{self.exposure:g}")
         self.scale = number(props, "cubemap", "scale", 1.0)
         if not np.isfinite(self.scale):
             raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
