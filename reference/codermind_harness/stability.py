@@ -175,9 +175,9 @@ def markdown_report(results: list[SweepResult], command: str) -> str:
 
 
 def _jsonable(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, (np.floating, np.integer)):
+    if isinstance(value, float):
+        return float(f"{value:.6g}") if math.isfinite(value) else str(value)
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
         return _jsonable(value.item())
     if isinstance(value, dict):
         return {k: _jsonable(v) for k, v in value.items()}
