@@ -167,7 +167,8 @@ def light_scenes(scene: mi.Scene) -> list[mi.Scene]:
     out = []
     for k, light in enumerate(lights):
         d = {"type": "scene", "integrator": scene.integrator()}
-        d.update({f"sensor{i}": s for i, s in enumerate(scene.sensors())})
+        # keys = ids: load_dict gives each object its key as id (the probes are found by id)
+        d.update({s.id() or f"sensor{i}": s for i, s in enumerate(scene.sensors())})
         d.update({f"shape{i}": s for i, s in enumerate(scene.shapes())})
         d.update({f"emitter{i}": e for i, e in enumerate(([light] + env) if k == 0 else [light])})
         out.append(mi.load_dict(d))
@@ -182,7 +183,8 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     the sum of their films, rendered with the same seeds) and, if asked, the variance of
     that mean from the pass means. Returns (mean, variance|None, spp done, pass times)."""
     scenes = scene if isinstance(scene, list) else [scene]
-    film = scenes[0].sensors()[0].film()
+    sensor = scenes[0].sensors()[0]     # the same object in every light scene
+    film = sensor.film()
     pixels = int(film.crop_size()[0]) * int(film.crop_size()[1])
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
@@ -197,7 +199,7 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
         t = time.perf_counter()
         arr = 0.0
         for sc in scenes:
-            img = mi.render(sc, sensor=0, spp=n, seed=pass_seed(seed, i))
+            img = mi.render(sc, sensor=sensor, spp=n, seed=pass_seed(seed, i))
             arr = arr + np.array(img, dtype=np.float64)[..., :3]
         dr.sync_thread()
         times.append(time.perf_counter() - t)
