@@ -73,6 +73,7 @@ class Model:
     blob_max_error: list[float] = field(default_factory=list)
     reasons: dict[str, str] = field(default_factory=dict)
     needs_exposure: bool = False         #: page 4: the depth bound needs E (not given)
+    lights: str = "sum"                  #: "sum" (one render per light) or "sample"
     variant: str = VARIANT
 
     @property
@@ -84,6 +85,7 @@ class Model:
                  f"spp {self.spp}: {self.reasons['spp']}"]
         for i, e in enumerate(self.blob_max_error):
             lines.append(f"blob{i}_max_error {e:.4g}: {self.reasons[f'blob{i}']}")
+        lines.append(f"lights {self.lights}: {self.reasons['lights']}")
         lines.append(f"variant {self.variant}: {self.reasons['variant']}")
         return lines
 
@@ -226,9 +228,13 @@ def blob_max_errors(scene, fraction: float = BLOB_FRACTION) -> tuple[list[float]
 
 def choose(scene, target: float = DEFAULT_TARGET, exposure: float | None = None,
            max_depth: int | None = None, spp: int | None = None,
-           blob_max_error: float | None = None, blob_fraction: float = BLOB_FRACTION) -> Model:
+           blob_max_error: float | None = None, blob_fraction: float = BLOB_FRACTION,
+           lights: str = "sum") -> Model:
     """The cheapest model within ``target`` levels of the full one (see the module doc).
-    ``max_depth``, ``spp``, ``blob_max_error``: the user's overrides."""
+    ``max_depth``, ``spp``, ``blob_max_error``: the user's overrides. ``lights``: how the
+    render adds the lights (:mod:`codermind.tutorial_render`): with ``sample`` (Mitsuba picks
+    one of N lights per hit) a deterministic scene needs N^2 samples of a jitter-free
+    stratified sampler (each light picked equally often at every hit) to be exact."""
     if not target > 0:
         raise ValueError(f"target must be > 0 levels, got {target:g}")
     page = scene.page
@@ -282,6 +288,11 @@ def choose(scene, target: float = DEFAULT_TARGET, exposure: float | None = None,
     if spp is not None:
         spp_choice = spp
         reasons["spp"] = "given by the user"
+    elif not stochastic and lights == "sample" and len(scene.lights) > 1:
+        spp_choice = len(scene.lights) ** 2
+        reasons["spp"] = (f"nothing is random but Mitsuba's choice of one of the "
+                          f"{len(scene.lights)} lights per hit: N^2 stratified samples pick "
+                          f"each light equally often at every hit, which is exact")
     elif not stochastic:
         spp_choice = 1
         reasons["spp"] = ("nothing is random (no lens blur, every roulette event certain): "
@@ -306,4 +317,8 @@ def choose(scene, target: float = DEFAULT_TARGET, exposure: float | None = None,
     for i, r in enumerate(blob_reasons):
         reasons[f"blob{i}"] = r
     reasons["variant"] = "the tutorial is RGB; the Python plugins are vectorized there"
-    return Model(depth_choice, spp_choice, stochastic, errors, reasons, needs_exposure)
+    reasons["lights"] = ("one render per light, added: the tutorial sums all lights at every "
+                         "hit" if lights == "sum" else "Mitsuba samples one light per hit "
+                         "(same expectation, more noise)")
+    return Model(depth_choice, spp_choice, stochastic, errors, reasons, needs_exposure,
+                 lights=lights)

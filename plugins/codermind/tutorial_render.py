@@ -175,6 +175,19 @@ def light_scenes(scene: mi.Scene) -> list[mi.Scene]:
     return out
 
 
+def check_light_sampling(scene: mi.Scene, spp: int) -> None:
+    """Mitsuba's light choice needs random (or N^2 stratified) samples: a jitter-free
+    stratified sampler with fewer picks the same light at every sample."""
+    n = sum(not mi.has_flag(e.flags(), mi.EmitterFlags.Infinite) for e in scene.emitters())
+    sampler = str(scene.sensors()[0].sampler())
+    if n > 1 and sampler.startswith("StratifiedSampler") and "jitter = 0" in sampler \
+            and spp < n * n:
+        raise CodermindError(f"lights=sample with {n} lights needs {n * n} samples of this "
+                             f"jitter-free sampler (each light picked equally often), got "
+                             f"{spp}: use lights=sum, more samples, or convert with "
+                             "--lights sample")
+
+
 def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
                   pass_spp: int | None = None, variance: bool = False,
                   progress: Progress | None = None,
@@ -190,6 +203,16 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
         k = min(spp, VARIANCE_PASSES)
         pass_spp = min(pass_spp or spp, -(-spp // k))
     plan = pass_plan(spp, pixels, pass_spp)
+    # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
+    sampler = sensor.sampler()
+    count = sampler.sample_count()
+    try:
+        return _passes(scenes, sensor, plan, spp, seed, variance, progress, should_stop)
+    finally:
+        sampler.set_sample_count(count)
+
+
+def _passes(scenes, sensor, plan, spp, seed, variance, progress, should_stop):
     total = None
     means, counts, times = [], [], []
     done = 0
@@ -238,6 +261,8 @@ def render(scene: mi.Scene, settings: ToneSettings, spp: int | None = None, seed
     lights = lights or settings.lights
     if lights not in ("sum", "sample"):
         raise CodermindError(f"lights must be 'sum' or 'sample', got {lights!r}")
+    if lights == "sample":
+        check_light_sampling(scene, spp)
     scene = light_scenes(scene) if lights == "sum" else scene
     e, source = None, "none"
     if settings.page == 2:

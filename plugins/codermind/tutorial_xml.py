@@ -142,10 +142,10 @@ class _Source:
         return CodermindError(f"{self.where(section, key)}: {message}")
 
 
-def settings_of(scene) -> ToneSettings:
+def settings_of(scene, lights: str = "sum") -> ToneSettings:
     tm = scene.tonemap
     return ToneSettings(page=scene.page, width=scene.width, height=scene.height,
-                        midpoint=tm.midpoint, power=tm.power, black=tm.black)
+                        midpoint=tm.midpoint, power=tm.power, black=tm.black, lights=lights)
 
 
 # -- checks of what the plugins can express ----------------------------------------------
@@ -254,6 +254,16 @@ def _notes(scene, model: Model) -> list[str]:
                          "the same distribution, other noise.")
         notes.append("Noise, textures and bump are computed in float32 (the original's Perlin "
                      "noise is double precision).")
+    if len(scene.lights) > 1:
+        notes.append("The tutorial shades every hit with all its lights; Mitsuba's path "
+                     "integrator samples one light per hit. " + (
+                         "codermind render therefore renders once per light and adds the "
+                         "images (exact); the plain mitsuba command on this file gives the same "
+                         "expectation with more noise." if model.lights == "sum" else
+                         "This file samples them (lights=sample): " + (
+                             "the N^2 stratified samples make that exact here." if not
+                             model.stochastic else "the same expectation with more noise "
+                             "than the tutorial's.")))
     for s in scene.spheres:
         if s.size == 0:
             notes.append(f"Sphere{s.index} has Size 0 (invisible in the original); left out.")
@@ -402,7 +412,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
     src = _Source(scene)
     _check_scene(scene, src)
     page = scene.page
-    settings = settings_of(scene)
+    settings = settings_of(scene, model.lights)
     notes = _notes(scene, model)
     folder = None if xml_path is None else Path(xml_path).parent
     conic = page == 4 and scene.camera.type == "conic"

@@ -32,16 +32,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--exposure", type=float,
                    help="page 4: the exposure E to assume in the depth bound (default: traced "
                         "through Mitsuba's probe grid when the bound needs it)")
+    p.add_argument("--lights", choices=("sum", "sample"),
+                   help="how codermind render adds the lights: 'sum' (default: one render per "
+                        "light, as the tutorial sums its lights at every hit) or 'sample' "
+                        "(Mitsuba picks one light per hit; a deterministic scene then gets N^2 "
+                        "samples, so that the plain mitsuba command is exact too)")
     p.add_argument("-q", "--quiet", action="store_true", help="print neither model nor notes")
 
 
 def _command_line(args: argparse.Namespace, scene: Path, out: Path) -> str:
-    parts = [f"codermind convert {scene.name} -o {out.name}"]
-    for flag in ("target", "max_depth", "spp", "blob_max_error", "exposure"):
-        value = getattr(args, flag)
-        if value is not None:
-            parts.append(f"--{flag.replace('_', '-')} {value:g}")
-    return " ".join(parts)
+    """How to regenerate the XML; options as NAME=VALUE (an XML comment cannot hold '--')."""
+    options = [f"{flag.replace('_', '-')}={getattr(args, flag):g}"
+               for flag in ("target", "max_depth", "spp", "blob_max_error", "exposure")
+               if getattr(args, flag) is not None]
+    if getattr(args, "lights", None):
+        options.append(f"lights={args.lights}")
+    text = f"codermind convert {scene.name} -o {out.name}"
+    return text + (f" with the options {' '.join(options)}" if options else "")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
         out = out.with_suffix(".xml")
     result = convert_file(scene_path, out, target=args.target, max_depth=args.max_depth,
                           spp=args.spp, blob_max_error=args.blob_max_error,
-                          exposure=args.exposure, command=_command_line(args, scene_path, out))
+                          exposure=args.exposure, lights=args.lights, command=_command_line(args, scene_path, out))
     if not args.quiet:
         for w in result.parse_warnings:
             print(f"codermind: warning: {w}", file=sys.stderr)
