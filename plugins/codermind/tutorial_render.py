@@ -59,6 +59,11 @@ from .tutorial_image import (ToneBlockError, ToneSettings, TutorialImage, exposu
 
 #: Passes at least, when the variance is estimated from pass means.
 VARIANCE_PASSES = 16
+#: Samples in flight per pass (pixels x spp). Memory does not grow with it (Mitsuba's
+#: megakernel derives each sample from its index), and large passes pay the fixed cost of a
+#: pass (~0.3-0.8 s CPU on page 4) less often: at 1280 x 960 passes of 6 spp cost 0.48 s CPU
+#: per spp, of 27 spp 0.37 s, of 64 spp 0.34 s (benchmarks/bench_page4_c256.py).
+LANE_BUDGET = 1 << 25
 #: Seed stream of the probe rays (apart from the render passes').
 PROBE_STREAM = 0x7072
 
@@ -199,9 +204,10 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     sensor = scenes[0].sensors()[0]     # the same object in every light scene
     film = sensor.film()
     pixels = int(film.crop_size()[0]) * int(film.crop_size()[1])
+    pass_spp = pass_spp or max(1, LANE_BUDGET // pixels)
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
-        pass_spp = min(pass_spp or spp, -(-spp // k))
+        pass_spp = min(pass_spp, -(-spp // k))
     plan = pass_plan(spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
     sampler = sensor.sampler()
