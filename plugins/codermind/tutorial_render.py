@@ -271,6 +271,7 @@ def render(scene: mi.Scene, settings: ToneSettings, spp: int | None = None, seed
         check_light_sampling(scene, spp)
     scene = light_scenes(scene) if lights == "sum" else scene
     e, source = None, "none"
+    exposure = "probes" if exposure is None else exposure
     if settings.page == 2:
         e, source = 1.0, "fixed"
     if settings.page in (2, 4) and not isinstance(exposure, str):
