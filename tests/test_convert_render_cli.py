@@ -22,7 +22,7 @@ def read(path):
 def test_outputs_exr_png_tga(tmp_path):
     out = run_cli("render", SCENES / "page1.xml", "-o", tmp_path / "p1")
     assert out.returncode == 0, out.stderr
-    assert "page 1, 1 spp" in out.stdout
+    assert "page-1 program, 1 spp" in out.stdout
     exr, png = read(tmp_path / "p1.exr"), read(tmp_path / "p1.png")
     assert exr.shape == (480, 640, 3) and png.shape == (480, 640, 3)
     assert (tmp_path / "p1.tga").read_bytes() == tga_bytes(png)

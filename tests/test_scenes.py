@@ -12,7 +12,7 @@ from conftest import ROOT
 
 SCENES = ROOT / "scenes"
 TUTORIAL = ["page1", "page2", "page3", "page4"]
-PHYSICAL = ["glass_garden"]
+PHYSICAL = ["garden"]
 
 
 def has_blob() -> bool:

@@ -179,6 +179,6 @@ def _finish_tutorial(result, base: Path) -> int:
         print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
               f"finished to {names}", file=sys.stderr)
         return 130
-    print(f"wrote {names} (page {result.settings.page}, {result.spp} spp{exposure}, "
+    print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
           f"{result.seconds:.2f} s)")
     return 0
