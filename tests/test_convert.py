@@ -181,3 +181,45 @@ def test_every_element_names_its_source_line(tmp_path, tutorial_dir):
         for line in xml.splitlines():
             if line.strip().startswith(tag):
                 assert "<!--" in line, line
+
+
+def test_probe_rays_are_the_tutorials(llvm, tmp_path, tutorial_dir):
+    """The probes sensor of a converted page-4 scene gives spec 2.5's rays: from (W/2, H/2, 0)
+    towards normalize((x - W/2)/PD, (y - H/2)/PD, 1) for x, y = i s, j s (past the top)."""
+    import mitsuba as mi
+    from codermind import tutorial_render as tr
+    from codermind.tutorial_image import probe_film_positions, probe_positions
+    folder = tmp_path / "scene"
+    shutil.copytree(tutorial_dir / "page4", folder)
+    text = (folder / "scene.txt").read_text().replace("NumberOfBlobs = 1", "NumberOfBlobs = 0")
+    (folder / "scene.txt").write_text(text)
+    scene, settings = tr.load(convert(tmp_path, folder / "scene.txt", "p4"))
+    sensor = tr.probe_sensor(scene, settings)
+    film = probe_film_positions(640, 480)
+    ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(film[:, 0], film[:, 1]), mi.Point2f(0, 0))
+    o, d = np.array(ray.o).T, np.array(ray.d).T
+    xy = probe_positions(640, 480)
+    pd = 320 / np.tan(np.radians(45))
+    want = np.stack([(xy[:, 0] - 320) / pd, (xy[:, 1] - 240) / pd, np.ones(256)], axis=1)
+    want /= np.linalg.norm(want, axis=1, keepdims=True)
+    assert np.allclose(o, [320, 240, 0], atol=1e-4)
+    assert np.allclose(d, want, atol=2e-6)
+    assert xy[:, 1].max() == 600 and float(np.array(ray.maxt)[0]) == pytest.approx(2000)
+
+
+def test_page4_orthographic_mode_shows_one_texel(llvm, tmp_path, tutorial_dir):
+    """Without Perspective.Type = conic the original's rays start at z = -10000 and reach
+    t = 2000: every pixel is the cube-map texel straight ahead; its probes (z = -1000) see the
+    objects, so the exposure is not the sky's."""
+    folder = tmp_path / "scene"
+    shutil.copytree(tutorial_dir / "page4", folder)
+    text = (folder / "scene.txt").read_text().replace("Perspective.Type = conic;", "")
+    text = text.replace("NumberOfBlobs = 1", "NumberOfBlobs = 0")
+    (folder / "scene.txt").write_text(text)
+    from codermind import tutorial_render as tr
+    scene, settings = tr.load(convert(tmp_path, folder / "scene.txt", "ortho"))
+    res = tr.render(scene, settings, seed=0)
+    rgb8 = res.image.rgb8[:-10]
+    assert (rgb8 == rgb8[0, 0]).all()
+    sky = tr.render(scene, settings, seed=0, exposure="render").exposure
+    assert res.exposure != pytest.approx(sky, rel=0.01)
