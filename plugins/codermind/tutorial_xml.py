@@ -325,24 +325,32 @@ def _film(w: _Writer, width: int, height: int, note: str) -> None:
     w.close("film")
 
 
+def _clip_and_offset(w: _Writer, near_note: str | None, far_note: str, offset: bool) -> None:
+    w.float("near_clip", 0, near_note)
+    w.float("far_clip", T_MAX, far_note)
+    if offset:
+        w.float("pixel_offset_x", 0, "every sample at the film pixel's bottom-left corner")
+        w.float("pixel_offset_y", 1)
+
+
+def _sampler_film_end(w: _Writer, sampler: str, film: tuple[int, int], film_note: str) -> None:
+    _sampler(w, sampler)
+    _film(w, film[0], film[1], film_note)
+    w.close("sensor")
+
+
 def _ortho_sensor(w: _Writer, scene, sid: str, z0: float, film: tuple[int, int],
                   offset: bool, sampler: str, film_note: str, note: str) -> None:
     half_w, half_h = scene.width / 2.0, scene.height / 2.0
     w.open("sensor", note, type="tutorialortho", id=sid)
-    w.float("near_clip", 0, "rays start at the film plane")
-    w.float("far_clip", T_MAX, "t < 2000")
-    if offset:
-        w.float("pixel_offset_x", 0, "every sample at the film pixel's bottom-left corner")
-        w.float("pixel_offset_y", 1)
+    _clip_and_offset(w, "rays start at the film plane", "t < 2000", offset)
     w.open("transform", "film [-1, 1] x [-1/a, 1/a] -> world [0, W] x [0, H], x mirrored",
            name="to_world")
     w.leaf("scale", "-W/2, W/2, 1", x=format_number(-half_w), y=format_number(half_w), z="1")
     w.leaf("translate", f"W/2, H/2, z = {format_number(z0)}", x=format_number(half_w),
            y=format_number(half_h), z=format_number(z0))
     w.close("transform")
-    _sampler(w, sampler)
-    _film(w, film[0], film[1], film_note)
-    w.close("sensor")
+    _sampler_film_end(w, sampler, film, film_note)
 
 
 def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, int],
@@ -356,20 +364,14 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
         w.float("focus_distance", cam.clear_point, src.note("Scene", "Perspective.ClearPoint"))
     elif aperture:
         w.comment("Perspective.Dispersion is 0: a pinhole (no depth of field)")
-    w.float("near_clip", 0)
-    w.float("far_clip", T_MAX, "t < 2000 along each ray")
-    if offset:
-        w.float("pixel_offset_x", 0, "every sample at the film pixel's bottom-left corner")
-        w.float("pixel_offset_y", 1)
+    _clip_and_offset(w, None, "t < 2000 along each ray", offset)
     w.open("transform", "eye at (W/2, H/2, 0) looking along +z; x mirrored (left-handed world)",
            name="to_world")
     w.leaf("scale", None, x="-1")
     w.leaf("translate", None, x=format_number(scene.width / 2.0),
            y=format_number(scene.height / 2.0), z="0")
     w.close("transform")
-    _sampler(w, sampler)
-    _film(w, film[0], film[1], film_note)
-    w.close("sensor")
+    _sampler_film_end(w, sampler, film, film_note)
 
 
 def _sampler(w: _Writer, kind: str) -> None:
