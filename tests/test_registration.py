@@ -48,3 +48,13 @@ def test_plugin_error_names_the_parameter(llvm):
     mi = llvm
     with pytest.raises(Exception, match="position"):
         mi.load_dict({**POINT, "to_world": mi.ScalarTransform4f().translate([1, 2, 3])})
+
+
+def test_helpers_without_mitsuba_keep_their_identity_across_switches():
+    import mitsuba as mi
+    import codermind  # noqa: F401
+    from codermind.shapes import _blobmesh
+    error_type = _blobmesh.BlobMeshError
+    mi.set_variant("scalar_rgb")
+    mi.set_variant("llvm_ad_rgb")
+    assert _blobmesh.BlobMeshError is error_type

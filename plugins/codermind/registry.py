@@ -34,7 +34,7 @@ def register_all() -> None:
     if mi.variant() is None:
         return
     for category in CATEGORIES:
-        # Shared helpers (``_noise`` etc.) hold variant-specific types too.
+        # Shared helpers (``_noise`` etc.) may hold variant-specific types too.
         package = importlib.import_module(f"{__package__}.{category}")
         for info in pkgutil.iter_modules(package.__path__):
             if info.name.startswith("_"):
@@ -44,10 +44,14 @@ def register_all() -> None:
 
 
 def _load(name: str) -> None:
-    if name in sys.modules:
-        importlib.reload(sys.modules[name])
-    else:
+    module = sys.modules.get(name)
+    if module is None:
         importlib.import_module(name)
+    elif any(value is mi for value in vars(module).values()):
+        importlib.reload(module)
+    # A module that does not import mitsuba (e.g. the numpy-only blob mesher) has nothing
+    # variant-specific; reloading it would only give its classes (exception types
+    # included) a new identity.
 
 
 def _on_variant_change(old: str | None, new: str | None) -> None:
