@@ -39,6 +39,7 @@ Mitsuba's ``moment`` integrator.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -193,6 +194,20 @@ def check_light_sampling(scene: mi.Scene, spp: int) -> None:
                              "--lights sample")
 
 
+def square_pass(spp: int, pass_spp: int) -> int:
+    """Mitsuba's stratified sampler rounds a pass's sample count up to a square: with a
+    square ``spp``, the largest square dividing it and <= ``pass_spp`` (1 at least), so that
+    every pass is exactly what it counts."""
+    root = math.isqrt(spp)
+    if root * root != spp:
+        return pass_spp
+    best = 1
+    for k in range(1, root + 1):
+        if spp % (k * k) == 0 and k * k <= max(pass_spp, 1):
+            best = k * k
+    return best
+
+
 def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
                   pass_spp: int | None = None, variance: bool = False,
                   progress: Progress | None = None,
@@ -208,6 +223,8 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
         pass_spp = min(pass_spp, -(-spp // k))
+    if str(sensor.sampler()).startswith("StratifiedSampler"):
+        pass_spp = square_pass(spp, pass_spp)
     plan = pass_plan(spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
     sampler = sensor.sampler()
