@@ -66,6 +66,10 @@ def test_page1_bytes_match_the_port(llvm, tmp_path, tutorial_dir):
     assert tie.sum() <= 130 and silhouette.sum() <= 25 and rest.sum() <= 55
     # the rest lies between the spheres (inter-reflections)
     assert (np.abs(xs[rest] - 320) < 90).all() and (np.abs(ty[rest] - 245) < 60).all()
+    # the TGA layout is the original's (the port's writer, same pixels)
+    from codermind.tutorial_image import tga_bytes
+    from codermind_ref import tga
+    assert tga_bytes(port.rgb8) == tga.encode(port.rgb8_tga)
     # and the linear radiance agrees to float32 rounding on most pixels
     rel = np.abs(res.linear - port.linear) / np.maximum(port.linear, 1e-3)
     assert np.median(rel[port.linear > 0.05]) < 1e-6
