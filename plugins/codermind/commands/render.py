@@ -1,6 +1,11 @@
 """Render a Mitsuba XML scene (built-in plugins and this package's) to a linear EXR and an
 sRGB PNG written side by side, atomically. The samples are rendered in passes with distinct
-seeds and accumulated; Ctrl-C stops after the current pass and writes what is done."""
+seeds and accumulated; Ctrl-C stops after the current pass and writes what is done.
+
+A scene converted from a tutorial scene file (`codermind convert`; it carries a
+codermind-tutorial comment block) goes through the tutorial's image pipeline instead: the
+PNG and TGA hold the tutorial's bytes (exposure, tone curve per sub-sample, sRGB, 2x2 mean,
+calibration strip), the EXR the linear film of sub-samples (2W x 2H on pages 2 and 4)."""
 
 from __future__ import annotations
 
@@ -23,6 +28,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                      "debugging, cuda_ad_rgb with a GPU)")
     p.add_argument("--seed", type=int, default=0, help="base random seed (default 0)")
     p.add_argument("--pass-spp", type=int, help="samples per pixel per pass (default: from image size)")
+    p.add_argument("-D", "--define", metavar="NAME=VALUE", action="append", default=[],
+                   help="set an XML <default> parameter, e.g. -D max_depth=11 -D spp=4 "
+                        "(repeatable)")
+    p.add_argument("--exposure", metavar="probes|render|E", default="probes",
+                   help="tutorial scenes, page 4: auto exposure from the probe grid traced "
+                        "through Mitsuba (default, as the tutorial), from the render's own "
+                        "sub-samples, or a fixed E (also page 2)")
+    p.add_argument("--lights", choices=("sum", "sample"),
+                   help="tutorial scenes: 'sum' renders once per light and adds (the "
+                        "tutorial sums its lights at every hit), 'sample' lets Mitsuba pick "
+                        "one light per hit (faster, noisier); default: the scene's block")
+    p.add_argument("--variance", action="store_true",
+                   help="tutorial scenes: also write OUT.variance.exr, the variance of each "
+                        "sub-sample's mean, estimated from >= 16 passes")
+    p.add_argument("--plain", action="store_true",
+                   help="ignore a codermind-tutorial block: plain EXR + sRGB PNG")
     p.add_argument("--deterministic", action="store_true",
                    help="bit-identical output for a given seed: runs Dr.Jit on one thread, since "
                         "parallel film accumulation adds samples in a varying order")
@@ -32,7 +53,31 @@ def output_base(scene: Path, output: str | None) -> Path:
     if output is None:
         return Path.cwd() / scene.stem
     out = Path(output)
-    return out.with_suffix("") if out.suffix.lower() in (".exr", ".png") else out
+    return out.with_suffix("") if out.suffix.lower() in (".exr", ".png", ".tga") else out
+
+
+def parse_defines(items: list[str]) -> dict[str, str]:
+    from ..errors import CodermindError
+    defines = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not name.strip().replace("_", "").isalnum():
+            raise CodermindError(f"-D {item}: expected NAME=VALUE")
+        defines[name.strip()] = value.strip()
+    return defines
+
+
+def parse_exposure(text: str) -> float | str:
+    from ..errors import CodermindError
+    if text in ("probes", "render"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise CodermindError(f"--exposure: 'probes', 'render' or a number, got {text!r}") from None
+    if not value > 0:
+        raise CodermindError(f"--exposure: must be > 0, got {text}")
+    return value
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,13 +92,18 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.seed < 2**32:
         raise CodermindError(f"--seed: must be in [0, 2^32), got {args.seed}")
 
+    defines = parse_defines(args.define)
+    exposure = parse_exposure(args.exposure)
+    from ..tutorial_render import read_settings
+    settings = None if args.plain else read_settings(scene_path)
+
     from ..variants import set_variant
     set_variant(args.variant)
     from ..scene import load_scene
     from ..render import Progress, render_passes, scene_spp
     from ..imageio import write_exr, write_png_srgb
 
-    scene = load_scene(scene_path)
+    scene = load_scene(scene_path, **defines)
     if not scene.sensors():
         raise CodermindError(f"{scene_path}: the scene has no sensor to render from")
     if scene.integrator() is None:
@@ -76,16 +126,29 @@ def run(args: argparse.Namespace) -> int:
         print("\ncodermind: Ctrl-C: stopping after the current pass (again to abort without "
               "writing)", file=sys.stderr, flush=True)
 
+    if settings is not None:
+        from .. import tutorial_render
+        tutorial_render.check_film(scene, settings, scene_path)
     previous = signal.signal(signal.SIGINT, on_sigint)
     try:
-        result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
-                               progress=Progress(spp, label=scene_path.name),
-                               should_stop=lambda: stop["requested"])
+        if settings is not None:
+            result = tutorial_render.render(
+                scene, settings, spp=spp, seed=args.seed, exposure=exposure,
+                lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
+                progress=Progress(spp, label=scene_path.name),
+                should_stop=lambda: stop["requested"])
+        else:
+            result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
+                                   progress=Progress(spp, label=scene_path.name),
+                                   should_stop=lambda: stop["requested"])
     except RuntimeError as e:   # e.g. a plugin rejecting its input at render time
         raise CodermindError(f"{scene_path}: rendering failed: {e}") from None
     finally:
         signal.signal(signal.SIGINT, previous)
         dr.set_thread_count(threads)
+
+    if settings is not None:
+        return _finish_tutorial(result, base)
 
     if result.spp == 0:
         print("codermind: interrupted before the first pass finished; nothing written",
@@ -99,4 +162,23 @@ def run(args: argparse.Namespace) -> int:
               f"finished to {exr} and {png}", file=sys.stderr)
         return 130
     print(f"wrote {exr} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
+    return 0
+
+
+def _finish_tutorial(result, base: Path) -> int:
+    from ..tutorial_render import write_outputs
+    if result is None:
+        print("codermind: interrupted before the first pass finished; nothing written",
+              file=sys.stderr)
+        return 130
+    paths = write_outputs(result, base)
+    names = ", ".join(str(p) for p in paths)
+    exposure = "" if result.exposure is None else \
+        f", exposure {result.exposure:.6g} ({result.exposure_source})"
+    if result.interrupted:
+        print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
+              f"finished to {names}", file=sys.stderr)
+        return 130
+    print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
+          f"{result.seconds:.2f} s)")
     return 0

@@ -1,0 +1,225 @@
+"""The page-4 scene through Mitsuba at Complexity 256 (640 x 480, 2 x 2 sub-samples x 256 =
+1024 samples per pixel), next to the port's time for the same work, and where the time goes.
+
+The scene is the tutorial's ``page4/derived_scene_complexity256.txt`` (from
+../shared/tutorial, read in place) or ``--scene``; it is converted in memory with
+``codermind convert``'s model (spp = Complexity, full depth, blob max_error from the
+footprint). Timed, each as wall-clock and process CPU time (all threads; steadier when other
+processes share the machine), medians over ``--runs`` interleaved runs:
+
+* load: scene loading (the blob mesh is built here) and the light scenes;
+* first render: JIT compilation of the kernel (or loading it from Dr.Jit's kernel cache in
+  ~/.drjit: run twice to see both);
+* probes: the auto exposure (256 probe rays);
+* render: all 1024 samples per pixel, ``--lights sum`` (one render per light, added: the
+  tutorial's all-lights estimate) and ``sample`` (Mitsuba picks one light per hit: half the
+  work, the same expectation, more noise); the mean byte difference between the two is printed;
+* the port (clean, all cores) at ``--port-complexity`` (default 4), scaled linearly to 256.
+
+``--breakdown`` adds the CPU cost per sample of the scene with parts removed (blob, its
+refraction, its bump, the textures, the lens, depths, blob tessellation, pass size), one light
+scene, ``--breakdown-spp`` samples each.
+
+Run: ``python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared" / "tutorial" / "page4"
+ORIGINAL_SECONDS = 148.0     # the original program, Complexity 256, one core (TUTORIAL_SPEC)
+
+
+def cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def load_text() -> str:
+    return "load average %.2f %.2f %.2f" % os.getloadavg()
+
+
+def timed(fn):
+    import drjit as dr
+    t, c = time.perf_counter(), cpu()
+    out = fn()
+    dr.sync_thread()
+    return out, time.perf_counter() - t, cpu() - c
+
+
+def edit(text: str, section: str, key: str, value: str) -> str:
+    """Set ``key`` in ``section`` of a tutorial scene text (added if missing)."""
+    m = re.search(rf"(^|\n)\s*{section}\s*\{{(?P<body>[^}}]*)\}}", text)
+    if not m:
+        raise SystemExit(f"no section {section}")
+    body = m["body"]
+    pattern = rf"(?m)^(\s*){re.escape(key)}\s*=[^;]*;"
+    new = re.sub(pattern, lambda k: f"{k[1]}{key} = {value};", body) if re.search(pattern, body) \
+        else body + f"\n  {key} = {value};\n"
+    return text[:m.start("body")] + new + text[m.end("body"):]
+
+
+def convert(source: Path, folder: Path, name: str, edits=(), **options) -> Path:
+    """Convert ``source`` with ``edits`` ((section, key, value), ...) into ``folder``; the
+    cube-map faces are linked next to the edited copy."""
+    from codermind.tutorial_convert import convert_scene, parse
+    text = source.read_text()
+    for section, key, value in edits:
+        text = edit(text, section, key, value)
+    for face in re.findall(r"Cubemap\.\w+\s*=\s*([^;\s]+\.tga)", text):
+        link = folder / face
+        if not link.exists() and (source.parent / face).is_file():
+            link.parent.mkdir(parents=True, exist_ok=True)
+            link.symlink_to((source.parent / face).resolve())
+    scene_txt = folder / f"{name}.txt"
+    scene_txt.write_text(text)
+    xml = folder / f"{name}.xml"
+    xml.write_text(convert_scene(parse(scene_txt), xml, **options).xml)
+    return xml
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scene", type=Path, default=SHARED / "derived_scene_complexity256.txt")
+    p.add_argument("--complexity", type=int, default=256)
+    p.add_argument("--runs", type=int, default=3)
+    p.add_argument("--port-complexity", type=int, default=4)
+    p.add_argument("--lights", default="sum,sample")
+    p.add_argument("--breakdown", action="store_true")
+    p.add_argument("--breakdown-spp", type=int, default=16)
+    args = p.parse_args()
+    if not args.scene.is_file():
+        print(f"no scene {args.scene} (../shared/tutorial missing?); pass --scene", file=sys.stderr)
+        return 1
+
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+    import codermind  # noqa: F401
+    from codermind import tutorial_render as tr
+
+    folder = Path(tempfile.mkdtemp(prefix="bench_c256_"))
+    print(f"scene {args.scene}, Complexity {args.complexity}, {load_text()}, "
+          f"{dr.thread_count()} Dr.Jit threads")
+    xml = convert(args.scene, folder, "page4", spp=args.complexity)
+    model = dict(re.findall(r'<default name="(\w+)" value="([^"]+)"', xml.read_text()))
+    print(f"model: {model}")
+
+    (scene, settings), t_load, c_load = timed(lambda: tr.load(xml))
+    lights = [m for m in args.lights.split(",") if m]
+    scenes = {"sum": tr.light_scenes(scene), "sample": [scene]}
+    _, t_first, c_first = timed(lambda: [np.array(mi.render(s, spp=1)) for s in scenes["sum"]]
+                                + [np.array(mi.render(scene, spp=1))])
+    e, t_probe, c_probe = timed(lambda: tr.probe_exposure(scenes["sum"], settings, seed=0))
+    print(f"load (blob mesh) {t_load:.2f} s wall / {c_load:.2f} s CPU; first renders (JIT "
+          f"compile or cache) {t_first:.2f} / {c_first:.2f}; probes {t_probe:.2f} / "
+          f"{c_probe:.2f}; exposure {e:.4f}")
+
+    results = {m: [] for m in lights}
+    images = {}
+    for run in range(args.runs):
+        for mode in lights:
+            res, wall, cpu_s = timed(lambda: tr.render(scene, settings, spp=args.complexity,
+                                                       seed=run, exposure=e, lights=mode))
+            results[mode].append((wall, cpu_s))
+            images[mode] = res.image.rgb8
+            print(f"  run {run + 1} lights={mode}: {wall:.2f} s wall, {cpu_s:.2f} s CPU, "
+                  f"{len(res.pass_times)} passes; {load_text()}", flush=True)
+
+    # the port: the same work at a lower Complexity, scaled
+    import codermind_ref as ref
+    port_scene = ref.parse_scene(args.scene)
+    workers = len(os.sched_getaffinity(0))
+    port_times = []
+    for run in range(args.runs):
+        _, wall, _ = timed(lambda: ref.render(port_scene, mode="clean", seed=run,
+                                              complexity=args.port_complexity, workers=workers))
+        port_times.append(wall)
+    port = statistics.median(port_times) * args.complexity / args.port_complexity
+
+    print()
+    print(f"Page 4 at Complexity {args.complexity} (640x480, {4 * args.complexity} samples per "
+          f"pixel), medians of {args.runs}; {load_text()}")
+    original = ORIGINAL_SECONDS * args.complexity / 256
+    print(f"{'':34s} {'wall s':>8s} {'CPU s':>8s} {'speed-up vs original':>21s}")
+    for mode in lights:
+        wall = statistics.median(w for w, _ in results[mode])
+        c = statistics.median(c for _, c in results[mode])
+        print(f"{'Mitsuba, lights=' + mode:34s} {wall:8.2f} {c:8.2f} {original / wall:20.2f}x")
+    print(f"{'port (clean, %d workers), C=%d x %d' % (workers, args.port_complexity, args.complexity // args.port_complexity):34s} "
+          f"{port:8.2f} {'':>8s} {original / port:20.2f}x   (timed at Complexity "
+          f"{args.port_complexity}, scaled linearly)")
+    print(f"{'original program (spec), 1 core':34s} {original:8.2f}"
+          + ("" if args.complexity == 256 else "   (its 148 s at 256, scaled)"))
+    print(f"fixed costs: load {t_load:.2f} s, first renders {t_first:.2f} s, probes {t_probe:.2f} s")
+    if len(images) == 2:
+        d = np.abs(images["sum"].astype(int) - images["sample"].astype(int))
+        print(f"sum vs sample (same exposure, one run each): mean |byte diff| {d.mean():.3f}, "
+              f"max {d.max()}")
+
+    if args.breakdown:
+        breakdown(args, folder, tr, mi, dr)
+    shutil.rmtree(folder, ignore_errors=True)
+    return 0
+
+
+def breakdown(args, folder: Path, tr, mi, dr) -> None:
+    """CPU seconds per sample per pixel of one light scene with parts of the scene removed."""
+    spp = args.breakdown_spp
+    variants = {
+        "as converted": ((), {}),
+        "no blob": ((("Scene", "NumberOfBlobs", "0"),), {}),
+        "blob without refraction": ((("Material3", "Refraction", "0.0"),), {}),
+        "blob without bump": ((("Material3", "Bumplevel", "0.0"),), {}),
+        "no textures (gouraud)": ((("Material0", "Type", "gouraud"),
+                                   ("Material2", "Type", "gouraud")), {}),
+        "no lens (Dispersion 0)": ((("Scene", "Perspective.Dispersion", "0.0"),), {}),
+        "max_depth 2 (1 segment)": ((), {"max_depth": 2}),
+        "max_depth 5": ((), {"max_depth": 5}),
+        "blob max_error 0.5": ((), {"blob_max_error": 0.5}),
+        "blob max_error 0.02": ((), {"blob_max_error": 0.02}),
+    }
+    loaded = {}
+    for name, (edits, options) in variants.items():
+        xml = convert(args.scene, folder, f"v{len(loaded)}", edits=edits, spp=spp, **options)
+        scene, _ = tr.load(xml)
+        one = tr.light_scenes(scene)[0]
+        mi.render(one, spp=1)
+        dr.sync_thread()
+        loaded[name] = one
+    costs = {name: [] for name in loaded}
+    for run in range(args.runs):
+        for name, one in loaded.items():
+            _, _, c = timed(lambda: np.array(mi.render(one, spp=spp, seed=run)))
+            costs[name].append(c / spp)
+    base = statistics.median(costs["as converted"])
+    print()
+    print(f"Where the time goes: CPU s per spp (1280x960 film, light scene 1 of 2), medians; "
+          f"{load_text()}")
+    for name, c in costs.items():
+        m = statistics.median(c)
+        print(f"  {name:28s} {m:7.3f}  ({m / base:5.2f} of the full scene)")
+    one = loaded["as converted"]
+    for per in (1, 6, 27, 64):
+        if per > spp:
+            break
+        _, _, c = timed(lambda: [np.array(mi.render(one, spp=per, seed=9 + k))
+                                 for k in range(max(1, spp // per))])
+        print(f"  passes of {per:3d} spp: {c / (per * max(1, spp // per)):.3f} CPU s per spp")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
