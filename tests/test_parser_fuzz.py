@@ -43,11 +43,13 @@ SOURCES = _sources()
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
-    """A folder with the page-4 cube-map faces (linked), where mutated scenes are written."""
+    """A folder with the cube-map faces of page 4 and of the bundled scenes (linked), where
+    mutated scenes are written."""
     tmp = tmp_path_factory.mktemp("fuzz")
     faces = ROOT.parent / "shared" / "tutorial" / "page4"
     for face in faces.glob("*.tga"):
         (tmp / face.name).symlink_to(face)
+    (tmp / "sky").symlink_to(ROOT / "scenes" / "sky")
     return tmp
 
 
