@@ -229,11 +229,14 @@ def test_bad_parameters_give_one_clear_error(llvm, params, needle):
 @pytest.mark.parametrize("params", [{"far_clip": float("inf")}, {"far_clip": 1e30},
                                     {"aperture": 1e30, "focus_distance": 10.0},
                                     {"aperture": 1e-3, "focus_distance": 1e30},
-                                    {"aperture": 1e19, "focus_distance": 1.0}])
+                                    {"aperture": 1e19, "focus_distance": 1.0},
+                                    {"aperture": 1e19, "focus_distance": 1e-19,
+                                     "near_clip": 1.0, "far_clip": float("inf")}])
 def test_extreme_distances_give_finite_unit_rays(llvm, lens, params):
     """A pinhole whose focus distance defaults to an infinite or huge far_clip, and huge
     apertures or focus distances, used to give NaN or zero directions (float32 overflow of
-    the focus or aperture point; found by the thin_lens stability sweep)."""
+    the focus or aperture point; found by the thin_lens stability sweep); a ray nearly
+    parallel to the lens met the near plane beyond float32 (found by the long property run)."""
     mi = llvm
     camera = mi.load_dict({"type": "conic", "lens": lens, "fov": 60.0, **params})
     rng = np.random.default_rng(2)
@@ -242,6 +245,7 @@ def test_extreme_distances_give_finite_unit_rays(llvm, lens, params):
     ray, _ = camera.sample_ray(0.0, 0.5, mi.Point2f(rng.random((2, 100))), mi.Point2f(s3))
     o, d = ray.o.numpy(), ray.d.numpy()
     assert np.isfinite(o).all() and np.isfinite(d).all()
+    assert (ray.maxt.numpy() >= 0).all()
     np.testing.assert_allclose(np.linalg.norm(d, axis=0), 1.0, rtol=1e-5)
 
 

@@ -196,7 +196,11 @@ class ConicCamera(mi.Sensor):
             near_t, far_t = self.near_clip * inv_z, self.far_clip * inv_z
         else:
             near_t, far_t = mi.Float(self.near_clip), mi.Float(self.far_clip)
-        return o + d_world * near_t, d_world, far_t - near_t
+        start = o + d_world * near_t
+        # A ray nearly parallel to the lens (aperture / focus_distance near the float32
+        # range) meets the near plane beyond float32: it stays on its aperture point, empty.
+        ok = dr.isfinite(near_t) & dr.isfinite(start.x) & dr.isfinite(start.y) & dr.isfinite(start.z)
+        return dr.select(ok, start, o), d_world, dr.select(ok, far_t - near_t, 0.0)
 
     def sample_ray(self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f,
                    sample3: mi.Point2f, active: mi.Bool = True) -> tuple[mi.Ray3f, mi.Spectrum]:
