@@ -128,6 +128,19 @@ def fit_slope(x, y) -> float:
     return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
 
 
+def fit_noise_floor(spp, errors) -> tuple[float, float]:
+    """(a, b) of error = a / spp + b, least squares in relative terms (each point weighted by
+    1 / error): a is the one-sample noise, b the floor (bias and the reference's noise)."""
+    s, e = np.asarray(spp, float), np.asarray(errors, float)
+    ok = (s > 0) & (e > 0) & np.isfinite(e)
+    if ok.sum() < 2:
+        return float("nan"), float("nan")
+    s, e = s[ok], e[ok]
+    (a, b), *_ = np.linalg.lstsq(np.stack([1 / (s * e), 1 / e], axis=1), np.ones(s.size),
+                                 rcond=None)
+    return float(a), float(b)
+
+
 def time_to_reach(times, errors, target: float) -> float | None:
     """Wall time at which a series first reaches ``target`` error, interpolated log-log
     between its points in order of time; None if it never does."""
@@ -174,14 +187,16 @@ def _set_variant(variant: str):
 
 
 class MitsubaRunner:
-    """Loaded scenes (one per crop and ``-D`` overrides), each warmed up once."""
+    """Loaded scenes (one per crop and ``-D`` overrides); a scene is warmed up (one untimed
+    1-spp render) whenever it is rendered after another one."""
 
     def __init__(self, xml: Path, width: int, height: int, page: int):
         self.xml, self.width, self.height, self.page = xml, width, height, page
         self.cache: dict = {}
+        self.last = None
+        self.warmups: list[float] = []      #: seconds of the untimed warm-up renders
 
     def get(self, rect, defines: dict, variant: str = "llvm_ad_rgb"):
-        from codermind.tutorial_render import light_scenes, render_linear
         key = (tuple(rect), tuple(sorted(defines.items())), variant)
         if key not in self.cache:
             _set_variant(variant)
@@ -189,19 +204,25 @@ class MitsubaRunner:
             t0 = time.perf_counter()
             scene, settings = load_mitsuba(self.xml, grid, {k: str(v) for k, v in defines.items()})
             load = time.perf_counter() - t0
+            from codermind.tutorial_render import light_scenes
             scenes = light_scenes(scene) if settings.lights == "sum" else [scene]
-            if variant != "scalar_rgb":
-                render_linear(scenes, 1, 12345)      # warm-up: JIT compilation
             tris = sum(int(s.face_count()) for s in scene.shapes() if s.is_mesh()) or None
             self.cache[key] = (grid, scenes, settings, load, tris)
-        return self.cache[key]
+        return key, self.cache[key]
 
     def render(self, rect, defines: dict, spp: int, seed: int, variant: str = "llvm_ad_rgb",
                variance: bool = False, label: str | None = None):
         from codermind.render import Progress
         from codermind.tutorial_render import render_linear
-        grid, scenes, settings, load, tris = self.get(rect, defines, variant)
+        key, (grid, scenes, settings, load, tris) = self.get(rect, defines, variant)
         _set_variant(variant)
+        if key != self.last and variant != "scalar_rgb":
+            # the first render of a scene after another one pays ~1 s again (the kernel is
+            # compiled or looked up again): an untimed 1-spp render, its time kept apart
+            t0 = time.perf_counter()
+            render_linear(scenes, 1, 12345)
+            self.warmups.append(time.perf_counter() - t0)
+        self.last = key
         bar = Progress(spp, label=f"chart: {label}") if label else None
         t0 = time.perf_counter()
         mean, var, _, _ = render_linear(scenes, spp, seed, variance=variance, progress=bar)
@@ -329,6 +350,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
     return {"scene": name, "xml": str(xml.relative_to(ROOT)), "crop": list(rect),
             "deterministic": det, "exposure": exposure, "reference": ref_desc,
             "reference_seconds": ref_s, "reference_noise_rel_mse": floor,
+            "warmup_seconds_median": statistics.median(runner.warmups) if runner.warmups else None,
             "chosen_model": chosen, "points": points}
 
 

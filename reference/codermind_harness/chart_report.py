@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .chart import THRESHOLD, ZERO_FLOOR, Point, equal_error_ratio, time_to_reach
+from .chart import (THRESHOLD, ZERO_FLOOR, Point, equal_error_ratio, fit_noise_floor,
+                    time_to_reach)
 
 POINT_COLUMNS = ("scene", "method", "param", "value", "spp", "seconds", "load_seconds", "runs",
                  "rel_mse", "flip", "triangles", "panel", "front_rel_mse", "front_flip")
@@ -127,8 +128,19 @@ def summary(result: dict) -> dict:
             "best_rel_mse": best.rel_mse, "best_flip": min(p.flip for p in ser),
             "seconds_at_best": best.seconds, "panel": ser[0].panel,
             "on_front": any(p.front_rel_mse for p in ser),
-            f"seconds_to_rel_mse_{THRESHOLD:g}": time_to_reach(
-                [p.seconds for p in ser], [p.rel_mse for p in ser], THRESHOLD)}
+            **{f"seconds_to_rel_mse_{t:g}": time_to_reach(
+                [p.seconds for p in ser], [p.rel_mse for p in ser], t)
+               for t in (10 * THRESHOLD, THRESHOLD)}}
+        if method in ("mitsuba spp", "port clean") and len(ser) > 2:
+            # rel MSE = a / spp + b; time = load + c spp from the largest point: the time to
+            # reach THRESHOLD from the noise term alone (None when b is above it)
+            a, b = fit_noise_floor([p.spp for p in ser], [p.rel_mse for p in ser])
+            big = max(ser, key=lambda p: p.spp)
+            c = (big.seconds - big.load_seconds) / big.spp
+            need = a / (THRESHOLD - b) if b < THRESHOLD else None
+            out[method].update({"fit_a": a, "fit_b": b, "seconds_per_spp": c,
+                                f"extrapolated_seconds_to_rel_mse_{THRESHOLD:g}":
+                                    None if need is None else big.load_seconds + c * need})
     port = [p for p in pts if p.method == "port clean"]
     mit = [p for p in pts if p.method == "mitsuba spp"]
     ratios = equal_error_ratio(port, mit)
@@ -145,13 +157,14 @@ def summary(result: dict) -> dict:
 
 def table(results: list[dict]) -> str:
     lines = [f"{'scene':7} {'method':27} {'best relMSE':>11} {'FLIP':>7} {'time s':>8} "
-             f"{'front':>5} {'t@1e-3 s':>9}"]
+             f"{'front':>5} {'t@1e-2 s':>9} {'t@1e-3 s':>9}"]
     for res in results:
         for method, s in res["summary"]["methods"].items():
-            t = s[f"seconds_to_rel_mse_{THRESHOLD:g}"]
+            t2, t = (s[f"seconds_to_rel_mse_{x:g}"] for x in (10 * THRESHOLD, THRESHOLD))
             lines.append(f"{res['scene']:7} {method:27} {s['best_rel_mse']:11.3g} "
                          f"{s['best_flip']:7.4f} {s['seconds_at_best']:8.2f} "
                          f"{('yes' if s['on_front'] else 'no') if s['panel'] == 'main' else '-':>5} "
+                         f"{'-' if t2 is None else f'{t2:.2f}':>9} "
                          f"{'-' if t is None else f'{t:.2f}':>9}")
     return "\n".join(lines) + "\n"
 
