@@ -6,7 +6,7 @@ blob sources and mesh triangles, with log-log slopes.
 * spp: the page-4 ``mitsuba spp`` and ``port clean`` series of the error chart (Mitsuba's
   load time taken off);
 * blob sources: a synthetic blob of N sources in a row (radius 1, 1.2 apart, ``max_error``
-  R/200, dielectric, ``path`` depth 10 under a constant sky, 128 x 96 at 4 spp): mesh build
+  R/200, dielectric, ``path`` depth 10 under a constant sky, 256 x 192 at 16 spp): mesh build
   (scene load) and render;
 * triangles: the page-4 ``mitsuba max_error`` series: build and render against the mesh's
   triangle count.
@@ -80,14 +80,14 @@ def blob_sources(cfg: Config) -> list[dict]:
             if rnd == 0:
                 mi.render(scene, spp=1, seed=7)          # warm-up (JIT)
             t0 = time.perf_counter()
-            img = mi.render(scene, spp=4, seed=SWEEP_SEED)
+            img = mi.render(scene, spp=16, seed=SWEEP_SEED)
             np.asarray(img)
             renders.append(time.perf_counter() - t0)
         _log(f"cost sources {n}: {tris} triangles, build {statistics.median(builds):.2f} s, "
              f"render {statistics.median(renders):.2f} s")
         rows.append(_row("sources", "blob build (load)", "sources", n, builds,
                          {"triangles": tris}))
-        rows.append(_row("sources", "render, 4 spp", "sources", n, renders,
+        rows.append(_row("sources", "render, 16 spp", "sources", n, renders,
                          {"triangles": tris}))
     return rows
 
@@ -100,7 +100,7 @@ def _blob_scene(n: int) -> dict:
         "integrator": {"type": "path", "max_depth": 11},
         "sensor": {"type": "perspective", "fov": 40,
                    "to_world": _look_at(span * 1.6),
-                   "film": {"type": "hdrfilm", "width": 128, "height": 96},
+                   "film": {"type": "hdrfilm", "width": 256, "height": 192},
                    "sampler": {"type": "independent"}},
         "sky": {"type": "constant"},
         "blob": {"type": "blob", "radius": 1.0, "max_error": 0.005, **centres,

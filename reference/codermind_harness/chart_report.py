@@ -109,6 +109,8 @@ def cost_figure(rows: list[dict], slopes: dict, load: str) -> bytes:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(sub[0]["x_name"])
+        from matplotlib.ticker import NullFormatter
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_ylabel("wall time, s")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
