@@ -67,7 +67,7 @@ class Config:
     garden_size: tuple = (160, 120)
     repeats: int = 3
     cheap_s: float = 3.0
-    pixel_sizes: tuple = ((32, 24), (64, 48), (128, 96), (256, 192), (512, 384))
+    strides: tuple = (16, 8, 4, 2, 1)     #: cost vs pixels: 1/s of the resolution
     sources: tuple = (1, 2, 4, 8, 16)
     maximal_spp: int = 64
     ref_max_error: float | None = 0.02     #: the reference's blob (None: the chooser's)
@@ -83,7 +83,7 @@ QUICK = Config(
     "quick", crops={s: (300, 240, 316, 252) for s in SCENES},
     spp=(1, 2, 4), det_spp=(1, 2), complexity=(1, 2), max_error=(0.6, 0.3), ref_spp=32,
     scalar_rect=(304, 244, 308, 247), scalar_spp=(1,), repeats=1,
-    pixel_sizes=((8, 6), (16, 12), (32, 24)), sources=(1, 2), maximal_spp=4,
+    strides=(32, 16), sources=(1, 2), maximal_spp=4,
     ref_max_error=None, maximal_divisor=1.0, garden_size=(32, 24))
 
 

@@ -1,8 +1,10 @@
 """How the cost grows with the work (``codermind chart``): wall time against pixels, samples,
 blob sources and mesh triangles, with log-log slopes.
 
-* pixels: page 4, centred crops of growing size; Mitsuba at 4 spp (render only, the scene
-  loaded and warmed up once per crop) and the port at Complexity 1 (2 workers), interleaved;
+* pixels: page 4's whole frame at 1/s of its resolution, s = ``Config.strides`` (the same
+  content at every size): Mitsuba with the film scaled (4 spp, plain render, each scene
+  warmed up before its timed render) and the port with stride s (Complexity 1, 2 workers),
+  interleaved;
 * spp: the page-4 ``mitsuba spp`` and ``port clean`` series of the error chart (Mitsuba's
   load time taken off);
 * blob sources: a synthetic blob of N sources in a row (radius 1, 1.2 apart, ``max_error``
@@ -14,13 +16,15 @@ blob sources and mesh triangles, with log-log slopes.
 
 from __future__ import annotations
 
+import os
+import re
 import statistics
 import time
+from pathlib import Path
 
 import numpy as np
 
-from .chart import (Config, MitsubaRunner, ROOT, SWEEP_SEED, _log, _port, _set_variant,
-                    fit_slope)
+from .chart import PORT_SEED, ROOT, SWEEP_SEED, Config, _log, _set_variant, fit_slope
 from .sides import parse, twin_of
 
 
@@ -30,25 +34,54 @@ def _row(experiment, method, x_name, x, runs, extra=None):
 
 
 def pixels(cfg: Config) -> list[dict]:
+    """The whole page-4 frame at 1/s of the resolution (the same content at every size):
+    Mitsuba with the first film scaled (the camera's FOV is fixed, so the view is the same;
+    plain render, 4 spp), the port with every s-th pixel (stride s, Complexity 1)."""
+    import tempfile
+    from codermind.scene import load_scene
+    from codermind.tutorial_render import light_scenes, render_linear
     txt, xml = twin_of(ROOT / "scenes" / "page4.xml")
     scene = parse(txt)
-    runner = MitsubaRunner(xml, scene.width, scene.height, scene.page)
-    cx, cy = scene.width // 2, scene.height // 2
-    rects = [(cx - w // 2, cy - h // 2, cx - w // 2 + w, cy - h // 2 + h) for w, h in cfg.pixel_sizes]
-    runs = {(m, r): [] for r in rects for m in ("mitsuba", "port")}
-    for rnd in range(cfg.repeats):
-        for r in rects:
-            secs = runner.render(r, {}, 4, SWEEP_SEED)[2]
-            runs[("mitsuba", r)].append(secs)
-            runs[("port", r)].append(_port(scene, r, 1, 1.0)[1])
-            _log(f"cost pixels round {rnd + 1}: {r[2] - r[0]}x{r[3] - r[1]}: mitsuba "
-                 f"{secs:.2f} s, port {runs[('port', r)][-1]:.2f} s")
+    runs: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        os.symlink(xml.parent / "sky", Path(tmp) / "sky")
+        loaded = {}
+        for s in cfg.strides:
+            path = Path(tmp) / f"page4_{s}.xml"
+            path.write_text(_scaled_film(xml.read_text(encoding="utf-8"), s), encoding="utf-8")
+            loaded[s] = light_scenes(load_scene(path))
+            render_linear(loaded[s], 1, 12345)       # warm-up (JIT)
+        for rnd in range(cfg.repeats):
+            for s in cfg.strides:
+                render_linear(loaded[s], 1, 12345)   # the kernel after a scene switch
+                t0 = time.perf_counter()
+                render_linear(loaded[s], 4, SWEEP_SEED)
+                runs.setdefault(("mitsuba", s), []).append(time.perf_counter() - t0)
+                rect = (0, 0, scene.width, scene.height)
+                t0 = time.perf_counter()
+                _port_stride(scene, rect, s)
+                runs.setdefault(("port", s), []).append(time.perf_counter() - t0)
+                _log(f"cost pixels round {rnd + 1}: 1/{s} resolution: mitsuba "
+                     f"{runs[('mitsuba', s)][-1]:.2f} s, port {runs[('port', s)][-1]:.2f} s")
     rows = []
-    for (m, r), t in runs.items():
-        n = (r[2] - r[0]) * (r[3] - r[1])
+    for (m, s), t in runs.items():
+        n = -(-scene.width // s) * -(-scene.height // s)
         rows.append(_row("pixels", "mitsuba llvm, 4 spp" if m == "mitsuba" else
                          "port clean, Complexity 1", "tutorial pixels", n, t))
     return rows
+
+
+def _scaled_film(text: str, s: int) -> str:
+    """The XML with its first film's width and height divided by ``s``."""
+    m = re.search(r'<film type="hdrfilm">.*?</film>', text, re.S)
+    film = re.sub(r'(<integer name="(?:width|height)" value=")(\d+)(")',
+                  lambda g: f"{g[1]}{-(-int(g[2]) // s)}{g[3]}", m.group(0))
+    return text[:m.start()] + film + text[m.end():]
+
+
+def _port_stride(scene, rect, stride: int) -> None:
+    import codermind_ref as ref
+    ref.render(scene, "clean", PORT_SEED, 1, exposure=1.0, rect=rect, stride=stride, workers=2)
 
 
 def from_scene(page4: dict) -> list[dict]:
@@ -116,7 +149,7 @@ def _look_at(distance: float):
 
 def slopes(rows: list[dict]) -> dict:
     """Fitted log-log slope per (experiment, method); pixels over the larger half of the
-    sizes (the small ones are fixed per-call cost)."""
+    sizes (the small ones are mostly fixed per-call cost)."""
     out = {}
     for key in sorted({(r["experiment"], r["method"]) for r in rows}):
         pts = sorted((r["x"], r["seconds"]) for r in rows if (r["experiment"], r["method"]) == key)
