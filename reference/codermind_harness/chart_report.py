@@ -65,9 +65,16 @@ def scene_figure(result: dict, load: str) -> bytes:
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4))
     for ax, (metric, label, panel) in zip(np.atleast_1d(axes), panels):
         sub = [p for p in pts if p.panel == panel]
+        positive = [getattr(p, metric) for p in sub if getattr(p, metric) > 0]
+        # an error of exactly 0 (the reference itself) is drawn at the axis floor
+        floor = min(positive) / 10 if positive else ZERO_FLOOR
+        if len(positive) < len(sub):
+            ax.axhline(floor, color="k", lw=0.5)
+            ax.text(0.02, 0.02, "bottom line: error 0 (the reference itself)",
+                    transform=ax.transAxes, fontsize=7)
         for method in dict.fromkeys(p.method for p in sub):
             ser = sorted((p for p in sub if p.method == method), key=lambda p: p.seconds)
-            y = [max(getattr(p, metric), ZERO_FLOOR) for p in ser]
+            y = [max(getattr(p, metric), floor) for p in ser]
             ax.plot([p.seconds for p in ser], y, marker=MARKERS.get(method, "o"),
                     ms=9 if method == "chooser pick" else 5, label=method,
                     ls="-" if len(ser) > 1 else "none")
@@ -75,7 +82,7 @@ def scene_figure(result: dict, load: str) -> bytes:
             front = sorted((p for p in sub if getattr(p, f"front_{metric}")),
                            key=lambda p: p.seconds)
             ax.plot([p.seconds for p in front],
-                    [max(getattr(p, metric), ZERO_FLOOR) for p in front], color="k", lw=2.5,
+                    [max(getattr(p, metric), floor) for p in front], color="k", lw=2.5,
                     alpha=0.25, marker="o", mfc="none", ms=13, label="Pareto front")
         if metric == "rel_mse" and result.get("reference_noise_rel_mse"):
             ax.axhline(result["reference_noise_rel_mse"], color="grey", ls=":",
