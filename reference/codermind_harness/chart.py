@@ -66,7 +66,7 @@ class Config:
     scalar_spp: tuple
     garden_size: tuple = (160, 120)
     repeats: int = 3
-    cheap_s: float = 3.0
+    cheap_s: float = 30.0     #: points slower than this (first run) are run once
     strides: tuple = (16, 8, 4, 2, 1)     #: cost vs pixels: 1/s of the resolution
     sources: tuple = (1, 2, 4, 8, 16)
     maximal_spp: int = 64
