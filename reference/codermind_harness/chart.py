@@ -22,11 +22,11 @@ samples (16 x the sweep's largest) and another seed; the port's curve is the cro
 bias between the sides would flatten it above the reference's noise floor, which is
 reported: the mean of var_ref / (ref^2 + 0.01)).
 
-Timings: each point's wall time is the median over ``repeats`` runs for points under
-``cheap_s`` seconds (one run otherwise); the methods run interleaved in each repeat round.
-Mitsuba points are load (parse + blob mesh) + render, after one untimed warm-up render of
-each loaded scene (JIT compilation, cached by Dr.Jit across runs, is not counted); port
-points are the render.
+Timings: each point's wall time is the median over ``repeats`` runs (points whose first
+run took over ``cheap_s`` seconds run once); the methods run interleaved in each repeat
+round, in a rotated order. Mitsuba points are load (parse + blob mesh) + render, after an
+untimed 1-spp render whenever the scene is rendered after another one (JIT compilation,
+cached by Dr.Jit across runs, is not counted); port points are the render.
 """
 
 from __future__ import annotations
