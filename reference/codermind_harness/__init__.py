@@ -3,6 +3,14 @@ stability sweeps that drive each method into the regime where it fails.
 
 Importing this package imports nothing heavy; each module imports what it needs:
 
+- :mod:`codermind_harness.metrics`: the per-sub-sample two-sample z-test, FLIP with guarded
+  inputs, relative MSE;
+- :mod:`codermind_harness.sides`: rendering a tutorial scene on both sides at matched sample
+  positions and counts (the converted XML through Mitsuba's ``path``; the port in clean mode);
+- :mod:`codermind_harness.compare`: ``codermind compare`` (per-scene verdict, JSON, table,
+  heat map);
+- :mod:`codermind_harness.chart`: ``codermind chart`` (error vs time, Pareto fronts, cost
+  scaling);
 - :mod:`codermind_harness.stability`: the sweep registry, result records, the report
   (markdown, JSON, one PNG per sweep) behind ``codermind stability``;
 - ``sweep_*`` modules: one function per sweep (see ``stability.SWEEPS``);

@@ -1,0 +1,252 @@
+"""``codermind compare``: a tutorial scene rendered by the Mitsuba plugins and by the port,
+compared per sub-sample (z-test), perceptually (FLIP) and by relative MSE.
+
+For each scene (:func:`compare_scene`):
+
+1. the twin: a ``.txt`` is converted (full model) into the output folder; an ``.xml`` is used
+   as it is, against the tutorial scene its header names (:func:`sides.twin_of`);
+2. the exposure: given, or the port's auto exposure for the seed (page 4), applied to both;
+3. both renders at the same sub-sample positions with ``spp`` = Complexity samples each
+   (:mod:`codermind_harness.sides`): Mitsuba with ``path``, the port in clean mode;
+4. the z-test on linear radiance (:func:`metrics.z_test`), FLIP on the displayed images
+   (sRGB before 8 bits, each side's own pipeline, the calibration strip left out), relative
+   MSE of Mitsuba against the port, and ``rel_mse_noise``, the relative MSE that the two
+   sides' variances alone explain (mean of (var_a + var_b) / (ref^2 + 0.01));
+5. the verdict against :class:`Thresholds`, a heat-map PNG, a JSON record.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics, sides
+from .sides import Grid, HarnessError
+
+
+@dataclass
+class Thresholds:
+    pass_rate: float = 0.99       #: smallest share of sub-samples passing the z-test
+    flip: float = 0.01            #: largest mean FLIP
+    alpha: float = metrics.ALPHA
+    rtol: float = metrics.RTOL
+    atol: float = metrics.ATOL
+
+
+@dataclass
+class Options:
+    spp: int | None = None        #: samples per sub-sample (default: sides.default_spp)
+    seed: int = 0
+    rect: tuple[int, int, int, int] | None = None
+    stride: int = 1
+    exposure: float | None = None
+    blob_max_error: float | None = None
+    port_mode: str = "clean"
+    out_dir: Path = Path("compare")
+    defines: dict = field(default_factory=dict)
+    thresholds: Thresholds = field(default_factory=Thresholds)
+    progress: bool = True
+    workers: int | None = None
+
+
+def log(message: str) -> None:
+    print(f"compare: {message}", file=sys.stderr, flush=True)
+
+
+def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
+    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers)."""
+    txt, xml = sides.twin_of(path)
+    scene = sides.parse(txt)
+    random = sides.is_random(scene)
+    spp = opt.spp or sides.default_spp(scene)
+    if spp < 1:
+        raise HarnessError(f"--spp must be >= 1, got {spp}")
+    if random and spp < 2:
+        raise HarnessError(f"{txt}: a random scene needs --spp >= 2 (both sides estimate "
+                           "their variance from their samples)")
+    if scene.page != 4 and spp != 1:
+        log(f"{txt.name}: page {scene.page} is deterministic; --spp {spp} changes nothing "
+            "(the port ignores it)")
+    grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
+    out = Path(opt.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if xml is None:
+        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error)
+        defines = dict(opt.defines)
+    else:
+        defines = dict(opt.defines)
+        if opt.blob_max_error is not None:
+            defines.update({f"blob{i}_max_error": str(opt.blob_max_error)
+                            for i in range(len(scene.blobs))})
+    defines["spp"] = str(spp)
+    exposure = opt.exposure
+    if exposure is None:
+        exposure = sides.port_exposure(scene, opt.seed, opt.port_mode)
+    elif scene.page == 1:
+        raise HarnessError(f"{txt}: page 1 has no exposure")
+    log(f"{txt.name}: page {scene.page}, {grid.pixels} pixels, {spp} spp, seed {opt.seed}"
+        + ("" if exposure is None else f", exposure {exposure:.6g}"))
+
+    port = sides.render_port(scene, grid, spp, opt.seed, exposure, opt.port_mode, random,
+                             opt.workers, opt.progress)
+    mits = sides.render_mitsuba(xml, grid, spp, opt.seed, exposure, defines,
+                                progress=opt.progress)
+    th = opt.thresholds
+    z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
+                       th.rtol, th.atol)
+    rows = strip_free_rows(grid, scene.page)
+    flip_mean, flip_map = metrics.flip(port.encoded[rows], mits.encoded[rows])
+    rel = metrics.rel_mse(mits.linear, port.linear)
+    rel_noise = float(np.mean((mits.variance + port.variance)
+                              / (np.square(port.linear) + metrics.REL_MSE_EPS)))
+
+    failures = []
+    if z.pass_rate < th.pass_rate:
+        failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
+    if flip_mean > th.flip:
+        failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+    stem = txt.stem if Path(path).suffix.lower() != ".xml" else Path(path).stem
+    heatmap = out / f"{stem}.compare.png"
+    write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
+                  f"{stem}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
+                  f"relMSE {rel:.3g}")
+    record = {
+        "scene": str(path), "tutorial_scene": str(txt), "xml": str(xml), "page": scene.page,
+        "width": scene.width, "height": scene.height,
+        "rect": list(grid.rect), "stride": grid.stride, "pixels": grid.pixels,
+        "sub_samples": int(z.passed_map.size), "spp": spp, "seed": opt.seed,
+        "random": random, "exposure": exposure, "port_mode": opt.port_mode,
+        "defines": defines,
+        "z_test": {"pass_rate": z.pass_rate, "channel_pass_rate": z.channel_pass_rate,
+                   "tests": z.tests, "alpha": th.alpha, "alpha_sidak": z.alpha,
+                   "z_critical": z.z_critical, "noiseless_sub_samples": z.noiseless,
+                   "noisy_tests": z.noisy_tests,
+                   "failing_sub_samples": int((~z.passed_map).sum()),
+                   "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
+                   "rtol": th.rtol, "atol": th.atol},
+        "flip_mean": flip_mean, "rel_mse": rel, "rel_mse_noise": rel_noise,
+        "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip},
+        "passed": not failures, "failures": failures,
+        "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
+                    "mitsuba_load": mits.load_seconds},
+        "heatmap": str(heatmap),
+    }
+    return record
+
+
+def strip_free_rows(grid: Grid, page: int) -> slice:
+    """Display rows of the grid's image that are rendered (pages 2 and 4 replace tutorial rows
+    y < 10 by the calibration strip, which both sides write identically)."""
+    if page == 1:
+        return slice(None)
+    keep = int((grid.ys >= 10).sum())
+    if keep == 0:
+        raise HarnessError("the grid lies entirely in the calibration strip (y < 10)")
+    return slice(0, keep)
+
+
+def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
+                  flip_map: np.ndarray, z: metrics.ZTest, port_label: str, title: str) -> None:
+    """One PNG: both images, the FLIP map and the |z| map (failing sub-samples in red)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from codermind.imageio import atomic_path
+    h, w = mits.shape[:2]
+    scale = min(1.0, 5.0 / max(w / 100, 1e-9))
+    fig, axes = plt.subplots(2, 2, figsize=(2 * w / 100 * scale + 1.5, 2 * h / 100 * scale + 1.2),
+                             dpi=100, constrained_layout=True)
+    axes[0, 0].imshow(mits, interpolation="nearest")
+    axes[0, 0].set_title("Mitsuba", fontsize=9)
+    axes[0, 1].imshow(port, interpolation="nearest")
+    axes[0, 1].set_title(port_label, fontsize=9)
+    full_flip = np.full((h, w), np.nan)
+    full_flip[rows] = flip_map
+    im = axes[1, 0].imshow(full_flip, cmap="magma", vmin=0.0, vmax=1.0, interpolation="nearest")
+    axes[1, 0].set_title("FLIP (strip rows blank)", fontsize=9)
+    fig.colorbar(im, ax=axes[1, 0], shrink=0.8)
+    zmap = np.minimum(z.z_map, 2 * z.z_critical)
+    im = axes[1, 1].imshow(zmap, cmap="viridis", vmin=0.0, vmax=z.z_critical,
+                           interpolation="nearest")
+    fails = np.ma.masked_where(z.passed_map, np.ones(z.passed_map.shape))
+    axes[1, 1].imshow(fails, cmap=matplotlib.colors.ListedColormap(["red"]), vmin=0, vmax=1,
+                      interpolation="nearest")
+    axes[1, 1].set_title(f"|z| per sub-sample (red: fails, z > {z.z_critical:.2f})",
+                         fontsize=9)
+    fig.colorbar(im, ax=axes[1, 1], shrink=0.8)
+    for ax in axes.ravel():
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(title, fontsize=10)
+    with atomic_path(path, ".png") as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def format_table(records: list[dict]) -> str:
+    """A fixed-width table, one row per scene."""
+    head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
+            "z sd", "FLIP", "relMSE", "noise", "port s", "mitsuba s", "verdict")
+    rows = []
+    for r in records:
+        z = r["z_test"]
+        rows.append((Path(r["scene"]).name, str(r["page"]), str(r["pixels"]), str(r["spp"]),
+                     "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
+                     f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
+                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
+                     f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
+                     f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
+                     "pass" if r["passed"] else "FAIL"))
+    widths = [max(len(x) for x in col) for col in zip(head, *rows)]
+    line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w)   # noqa: E731
+                                   for i, (c, w) in enumerate(zip(cells, widths)))
+    return "\n".join([line(head), line(["-" * w for w in widths])] + [line(r) for r in rows])
+
+
+def _num(x: float | None, fmt: str) -> str:
+    return "-" if x is None else "inf" if math.isinf(x) else format(x, fmt)
+
+
+def write_json(path: Path, payload) -> None:
+    from codermind.imageio import atomic_path
+    with atomic_path(path, ".json") as tmp:
+        tmp.write_text(json.dumps(payload, indent=2, default=_jsonable) + "\n", encoding="utf-8")
+
+
+def _jsonable(x):
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"not JSON serializable: {type(x).__name__}")
+
+
+def run(scenes: list[str], opt: Options, variant: str | None = None) -> tuple[list[dict], int]:
+    """Compare every scene, write ``compare.json`` and ``compare.txt`` into the output folder.
+    Returns (records, exit status: 0 all pass, 1 some scene fails its thresholds)."""
+    from codermind.variants import set_variant
+    set_variant(variant)
+    import codermind  # noqa: F401  (registers the plugins)
+    t0 = time.perf_counter()
+    records = [compare_scene(s, opt) for s in scenes]
+    out = Path(opt.out_dir)
+    table = format_table(records)
+    write_json(out / "compare.json", {"options": _options_json(opt), "scenes": records,
+                                      "seconds": time.perf_counter() - t0})
+    from codermind.imageio import atomic_path
+    with atomic_path(out / "compare.txt", ".txt") as tmp:
+        tmp.write_text(table + "\n", encoding="utf-8")
+    return records, 0 if all(r["passed"] for r in records) else 1
+
+
+def _options_json(opt: Options) -> dict:
+    d = asdict(opt)
+    d["out_dir"] = str(opt.out_dir)
+    return d

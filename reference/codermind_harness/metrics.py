@@ -1,0 +1,152 @@
+"""Image comparison statistics: a two-sample z-test per sub-sample, FLIP, relative MSE.
+
+**z-test** (:func:`z_test`), as Mitsuba's ``RenderingRegressionTest`` but with two estimated
+sides: one test per sub-sample (film pixel) and RGB channel of the linear radiance, with
+z = |a - b| / sqrt(var_a + var_b), each variance that of its side's mean. Its two-sided
+p-value is compared with alpha Sidak-corrected over all the tests made,
+1 - (1 - alpha)^(1/N). A sub-sample passes when all three channels pass. A channel also
+passes when |a - b| <= rtol max(|a|, |b|) + atol: a float tolerance for pixels that neither
+side samples randomly (variance 0 on both sides, e.g. pages 1-3), where float32 arithmetic
+in another order and Mitsuba's ray offsets (instead of the tutorial's 0.1 epsilon) move
+multi-bounce hit points; defaults rtol 1e-3, atol 1e-4 (radiance units: 1 is byte 255 on
+page 1), about a quarter of an 8-bit level.
+
+**FLIP** (:func:`flip`): NVIDIA's ``flip-evaluator`` (LDR-FLIP, default 67 pixels per degree)
+on sRGB-encoded images in [0, 1]. Its Python API prints a message and exits the process on
+some bad inputs (a size mismatch, a bad parameter) and silently accepts others (NaN, values
+outside [0, 1], integer images): :func:`check_ldr` refuses all of them first with
+:class:`FlipInputError`.
+
+**Relative MSE** (:func:`rel_mse`): mean over sub-samples and channels of
+(test - ref)^2 / (ref^2 + 0.01), on linear radiance (the usual 0.01 keeps dark pixels from
+dominating).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Significance level of the whole image (before the Sidak correction).
+ALPHA = 0.01
+#: Float tolerance of pixels without sampling noise (see the module doc).
+RTOL = 1e-3
+ATOL = 1e-4
+#: The relative MSE's guard for dark pixels.
+REL_MSE_EPS = 1e-2
+
+
+class FlipInputError(ValueError):
+    """An image that FLIP must not be given (it would exit the process or mislead)."""
+
+
+@dataclass
+class ZTest:
+    """Result of :func:`z_test`; maps are per sub-sample (H, W)."""
+    pass_rate: float           #: fraction of sub-samples whose three channels pass
+    channel_pass_rate: float   #: fraction of (sub-sample, channel) tests that pass
+    tests: int                 #: N, the number of (sub-sample, channel) tests
+    alpha: float               #: per-test level after the Sidak correction
+    z_critical: float          #: |z| above which a noisy channel fails
+    noiseless: int             #: sub-samples with zero variance on both sides
+    noisy_tests: int           #: tests with a positive variance
+    max_z: float | None        #: largest |z| among noisy channels (None: no noisy channel)
+    z_sd: float | None         #: sd of the signed z over noisy channels (about 1 when the
+                               #: sides agree and the variances are right)
+    z_mean: float | None       #: mean of the signed z over noisy channels (about 0)
+    passed_map: np.ndarray     #: bool (H, W)
+    z_map: np.ndarray          #: float (H, W): largest |z| over the channels (0 within the
+                               #: float tolerance, inf: a noiseless channel outside it)
+
+
+def sidak_alpha(alpha: float, tests: int) -> float:
+    """Per-test level so that N independent tests reject anything with probability alpha."""
+    return -np.expm1(np.log1p(-alpha) / max(tests, 1))
+
+
+def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.ndarray,
+           alpha: float = ALPHA, rtol: float = RTOL, atol: float = ATOL) -> ZTest:
+    """Two-sample z-test of two (H, W, 3) renders with the variances of their means."""
+    from scipy.special import ndtri
+    a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
+    va, vb = (np.asarray(x, dtype=np.float64) for x in (var_a, var_b))
+    shapes = {x.shape for x in (a, b, va, vb)}
+    if len(shapes) != 1 or a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"z_test needs four (H, W, 3) arrays of one shape, got "
+                         f"{[x.shape for x in (a, b, va, vb)]}")
+    for name, x in (("mean", a), ("mean", b)):
+        if not np.isfinite(x).all():
+            raise ValueError(f"z_test: a {name} image has {int((~np.isfinite(x)).sum())} "
+                             "non-finite values")
+    for x in (va, vb):
+        if np.isnan(x).any() or (x < 0).any():
+            raise ValueError("z_test: a variance image has NaN or negative values (a side "
+                             "with one sample cannot estimate its variance)")
+    tests = a.size
+    level = sidak_alpha(alpha, tests)
+    z_crit = float(-ndtri(level / 2.0))
+    diff = np.abs(a - b)
+    var = va + vb
+    within = diff <= rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    noisy = var > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(noisy, diff / np.sqrt(np.where(noisy, var, 1.0)), np.where(within, 0.0, np.inf))
+        signed = np.where(noisy, (a - b) / np.sqrt(np.where(noisy, var, 1.0)), 0.0)
+    ok = within | (noisy & (z <= z_crit))
+    passed = ok.all(axis=2)
+    zs = signed[noisy]
+    return ZTest(float(passed.mean()), float(ok.mean()), tests, float(level), z_crit,
+                 int((~noisy).all(axis=2).sum()), int(zs.size),
+                 float(np.abs(zs).max()) if zs.size else None,
+                 float(zs.std()) if zs.size > 1 else None,
+                 float(zs.mean()) if zs.size else None,
+                 passed, np.where(within, 0.0, z).max(axis=2))
+
+
+def rel_mse(test: np.ndarray, ref: np.ndarray, eps: float = REL_MSE_EPS) -> float:
+    """mean((test - ref)^2 / (ref^2 + eps))."""
+    t, r = np.asarray(test, dtype=np.float64), np.asarray(ref, dtype=np.float64)
+    if t.shape != r.shape:
+        raise ValueError(f"rel_mse: shapes differ, {t.shape} vs {r.shape}")
+    return float(np.mean(np.square(t - r) / (np.square(r) + eps)))
+
+
+def check_ldr(image, name: str = "image") -> np.ndarray:
+    """The image as FLIP's LDR input (float32 (H, W, 3) C-contiguous, finite, in [0, 1]),
+    or FlipInputError saying what is wrong."""
+    if not isinstance(image, np.ndarray):
+        raise FlipInputError(f"FLIP: {name} must be a numpy array, got {type(image).__name__}")
+    if image.dtype.kind != "f":
+        raise FlipInputError(f"FLIP: {name} must be floating point (sRGB in [0, 1]), got "
+                             f"{image.dtype}")
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise FlipInputError(f"FLIP: {name} must be (H, W, 3), got {image.shape}")
+    if image.shape[0] < 1 or image.shape[1] < 1:
+        raise FlipInputError(f"FLIP: {name} is empty, {image.shape}")
+    bad = ~np.isfinite(image)
+    if bad.any():
+        raise FlipInputError(f"FLIP: {name} has {int(bad.sum())} NaN or infinite values")
+    lo, hi = float(image.min()), float(image.max())
+    if lo < 0.0 or hi > 1.0:
+        raise FlipInputError(f"FLIP: {name} must lie in [0, 1] (LDR, sRGB-encoded), got "
+                             f"[{lo:.4g}, {hi:.4g}]")
+    return np.ascontiguousarray(image, dtype=np.float32)
+
+
+def flip(reference: np.ndarray, test: np.ndarray) -> tuple[float, np.ndarray]:
+    """Mean LDR-FLIP and the (H, W) error map of two sRGB images in [0, 1]."""
+    ref = check_ldr(reference, "reference")
+    tst = check_ldr(test, "test")
+    if ref.shape != tst.shape:
+        raise FlipInputError(f"FLIP: the images differ in size, {ref.shape[1]}x{ref.shape[0]} "
+                             f"vs {tst.shape[1]}x{tst.shape[0]}")
+    import flip_evaluator
+    try:
+        error_map, mean, _ = flip_evaluator.evaluate(ref, tst, "LDR", applyMagma=False)
+    except SystemExit as e:     # its Python layer exits on what it dislikes
+        raise FlipInputError(f"FLIP refused its input (exit status {e.code})") from None
+    error_map = np.asarray(error_map, dtype=np.float64)
+    if error_map.ndim == 3:
+        error_map = error_map[..., 0]
+    return float(mean), error_map

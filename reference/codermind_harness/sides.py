@@ -1,0 +1,295 @@
+"""One tutorial scene rendered on both sides, at matched sample positions and counts.
+
+* **Mitsuba**: the converted XML (``codermind convert``, full model: ``path`` with
+  ``max_depth`` 11) rendered with ``codermind.tutorial_render``: lights summed as the tutorial
+  does, ``spp`` samples per film pixel (= per tutorial sub-sample), the variance of each
+  sub-sample's mean from >= 16 pass means.
+* **Port**: ``codermind_ref.render`` in clean mode (or any mode) with Complexity = ``spp``.
+
+Both see the same sub-sample positions (the pixel's corner + {0, 1/2}^2, no jitter; page 1
+the corner) and the same exposure (page 4: given, or the port's auto exposure for the seed;
+page 2: 1). A :class:`Grid` picks part of the image: ``rect`` (half-open, tutorial pixel
+coordinates, y up) and ``stride`` (every stride-th pixel). The port renders only those
+pixels; Mitsuba renders the rectangle (a film crop) and the grid is taken from it.
+
+A scene without randomness (no lens blur, every roulette event certain:
+``codermind.tutorial_model``) is rendered with one sample on both sides; its variance is 0
+by construction on both (the port reports NaN for one ray on page 4, which is then 0).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: The converted XML's header names its source file: "Converted by `codermind convert`
+#: from NAME (scene version ..." (codermind.tutorial_xml).
+_SOURCE = re.compile(r"Converted by `codermind convert` from (?P<name>.+?) \(scene version")
+_FILM = re.compile(r'<film\b[^>]*\btype="hdrfilm"[^>]*>')
+#: Samples per sub-sample of a random scene when its Complexity is lower: both sides need
+#: several rays to estimate a variance, and Mitsuba's comes from up to 16 pass means.
+MIN_RANDOM_SPP = 16
+
+
+class HarnessError(Exception):
+    """A user error (bad scene, bad option); the CLI prints it on one line."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Pixels of a ``width`` x ``height`` tutorial image: ``xs`` x ``ys`` (y up)."""
+    width: int
+    height: int
+    sub: int                                  #: sub-samples per axis: 1 (page 1) or 2
+    rect: tuple[int, int, int, int]
+    stride: int = 1
+
+    @classmethod
+    def of(cls, width: int, height: int, page: int, rect=None, stride: int = 1) -> "Grid":
+        rect = tuple(int(v) for v in (rect or (0, 0, width, height)))
+        x0, y0, x1, y1 = rect
+        if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+            raise HarnessError(f"--rect {x0},{y0},{x1},{y1} is not inside the {width}x{height} "
+                               "image (x0,y0,x1,y1, half-open, y up)")
+        if stride < 1:
+            raise HarnessError(f"--stride must be >= 1, got {stride}")
+        return cls(width, height, 1 if page == 1 else 2, rect, int(stride))
+
+    @property
+    def xs(self) -> np.ndarray:
+        return np.arange(self.rect[0], self.rect[2], self.stride)
+
+    @property
+    def ys(self) -> np.ndarray:
+        return np.arange(self.rect[1], self.rect[3], self.stride)
+
+    @property
+    def pixels(self) -> int:
+        return self.xs.size * self.ys.size
+
+    @property
+    def full(self) -> bool:
+        return self.rect == (0, 0, self.width, self.height) and self.stride == 1
+
+    def crop(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Film crop (offset, size) in film pixels covering ``rect`` (film row 0 = top)."""
+        x0, y0, x1, y1 = self.rect
+        k = self.sub
+        return (k * x0, k * (self.height - y1)), (k * (x1 - x0), k * (y1 - y0))
+
+    def take(self, cropped: np.ndarray) -> np.ndarray:
+        """The grid's sub-samples, display order, from the cropped film."""
+        k, (x0, _, _, y1) = self.sub, self.rect
+        xs, ys = self.xs, self.ys
+        cols = (k * (xs - x0))[:, None] + np.arange(k)[None, :]            # (w, a)
+        rows = (k * (y1 - 1 - ys))[:, None] + (k - 1 - np.arange(k))[None, :]   # (h, b)
+        rows = rows[::-1, ::-1].ravel()            # display order: top row, then b = 1 first
+        return cropped[rows][:, cols.ravel()]
+
+
+@dataclass
+class SideImage:
+    """One side's render of a grid (display order)."""
+    label: str
+    linear: np.ndarray       #: float64 (k h, k w, 3) mean radiance per sub-sample
+    variance: np.ndarray     #: float64, same: variance of that mean
+    encoded: np.ndarray      #: float64 (h, w, 3): the displayed image before 8 bits, in [0, 1]
+    spp: int
+    seconds: float           #: rendering (and, for Mitsuba, loading) wall time
+    load_seconds: float = 0.0
+
+
+# -- the scene and its twin ------------------------------------------------------------------
+
+def twin_of(path: str | os.PathLike) -> tuple[Path, Path | None]:
+    """(tutorial scene file, Mitsuba XML or None). A ``.txt`` is its own twin (the XML is
+    converted); an ``.xml``'s twin is the source file its converter header names, looked up in
+    the XML's folder, else the ``.txt`` of the same name next to it."""
+    path = Path(path)
+    if not path.is_file():
+        raise HarnessError(f"{path}: no such scene file")
+    if path.suffix.lower() != ".xml":
+        return path, None
+    text = path.read_text(encoding="utf-8", errors="replace")
+    m = _SOURCE.search(text)
+    candidates = ([path.parent / m["name"]] if m else []) + [path.with_suffix(".txt")]
+    for txt in candidates:
+        if txt.is_file():
+            return txt, path
+    raise HarnessError(f"{path}: no tutorial twin: "
+                       + (f"its header names {m['name']}, which is not in {path.parent}, "
+                          if m else "no converter header naming its source, ")
+                       + f"and there is no {path.with_suffix('.txt').name} next to it")
+
+
+def parse(txt: Path):
+    import codermind_ref as ref
+    try:
+        return ref.parse_scene(txt)
+    except ref.SceneError as e:
+        raise HarnessError(str(e)) from None
+
+
+def is_random(scene) -> bool:
+    """Whether a sub-sample's rays differ (lens blur or a random roulette event)."""
+    from codermind.tutorial_model import choose
+    return choose(scene, exposure=1.0, max_depth=11, spp=1).stochastic
+
+
+def default_spp(scene) -> int:
+    """1 for a scene without randomness; else the scene's Complexity, at least 16."""
+    if scene.page != 4 or not is_random(scene):
+        return 1
+    return max(scene.complexity, MIN_RANDOM_SPP)
+
+
+def port_exposure(scene, seed: int, mode: str = "clean") -> float | None:
+    """The port's exposure for ``seed``: page 4 auto (the probe grid), page 2: 1, page 1: None."""
+    import codermind_ref as ref
+    if scene.page == 1:
+        return None
+    if scene.page == 2:
+        return 1.0
+    return ref.render(scene, mode, seed, 1, rect=(0, 0, 1, 1), workers=1).exposure
+
+
+def convert_xml(txt: Path, scene, out_dir: Path, blob_max_error: float | None = None,
+                name: str | None = None) -> Path:
+    """The converter's XML of ``scene`` with the full model (``max_depth`` 11), written to
+    ``out_dir`` (cube-map faces named relative to it)."""
+    from codermind.tutorial_convert import convert_scene
+    from codermind.imageio import atomic_path
+    xml = out_dir / (name or f"{txt.stem}.xml")
+    conversion = convert_scene(scene, xml, max_depth=11, spp=1, blob_max_error=blob_max_error,
+                               command=f"codermind convert {txt} --max-depth 11")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_path(xml) as tmp:
+        tmp.write_text(conversion.xml, encoding="utf-8")
+    return xml
+
+
+# -- Mitsuba ---------------------------------------------------------------------------------
+
+def crop_xml(text: str, offset: tuple[int, int], size: tuple[int, int]) -> str:
+    """``text`` with a crop window on its first ``hdrfilm`` (the rendered sensor's)."""
+    m = _FILM.search(text)
+    if m is None or m.group(0).endswith("/>"):
+        raise HarnessError("cannot crop the film (no <film type=\"hdrfilm\"> element): use the "
+                           "full image (no --rect)")
+    props = "".join(f'<integer name="{n}" value="{v}"/>' for n, v in (
+        ("crop_offset_x", offset[0]), ("crop_offset_y", offset[1]),
+        ("crop_width", size[0]), ("crop_height", size[1])))
+    return text[:m.end()] + props + text[m.end():]
+
+
+def load_mitsuba(xml: Path, grid: Grid, defines: dict):
+    """The scene of ``xml`` with the first sensor's film cropped to the grid's rectangle."""
+    import mitsuba as mi
+    from codermind.errors import CodermindError
+    from codermind.scene import attach_emitters, load_scene
+    from codermind.tutorial_render import read_settings
+    settings = read_settings(xml)
+    if settings is None:
+        raise HarnessError(f"{xml}: not a converted tutorial scene (no codermind-tutorial "
+                           "block)")
+    if (settings.width, settings.height) != (grid.width, grid.height):
+        raise HarnessError(f"{xml}: {settings.width}x{settings.height}, but its twin is "
+                           f"{grid.width}x{grid.height}")
+    try:
+        if grid.rect == (0, 0, grid.width, grid.height):
+            return load_scene(xml, **defines), settings
+        text = crop_xml(xml.read_text(encoding="utf-8"), *grid.crop())
+        resolver = mi.file_resolver()
+        saved = [resolver[i] for i in range(len(resolver))]
+        resolver.prepend(str(xml.resolve().parent))   # as load_file does for its own folder
+        try:
+            scene = mi.load_string(text, **defines)
+        finally:
+            resolver.clear()
+            for folder in saved:
+                resolver.append(folder)
+        attach_emitters(scene)
+        return scene, settings
+    except CodermindError as e:
+        raise HarnessError(str(e)) from None
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise HarnessError(f"{xml}: {e}") from None
+
+
+def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.ndarray:
+    """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial_image)."""
+    from codermind.tutorial_image import average_blocks, srgb_encode, tone_curve
+    if settings.page == 1:
+        return np.clip(linear, 0.0, 1.0)
+    e = 1.0 if exposure is None else float(exposure)
+    return np.clip(srgb_encode(average_blocks(tone_curve(e * linear, settings))), 0.0, 1.0)
+
+
+def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
+                   defines: dict | None = None, variance: bool = True,
+                   progress: bool = True) -> SideImage:
+    from codermind.render import Progress
+    from codermind.tutorial_render import light_scenes, render_linear
+    t0 = time.perf_counter()
+    defines = dict(defines or {})
+    scene, settings = load_mitsuba(xml, grid, defines)
+    t1 = time.perf_counter()
+    scenes = light_scenes(scene) if settings.lights == "sum" else scene
+    bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
+    mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance, progress=bar)
+    seconds = time.perf_counter() - t0
+    linear = grid.take(mean.astype(np.float64))
+    var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
+    return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
+                     done, seconds, t1 - t0)
+
+
+# -- the port --------------------------------------------------------------------------------
+
+def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
+                mode: str = "clean", random: bool | None = None, workers: int | None = None,
+                progress: bool = True) -> SideImage:
+    import codermind_ref as ref
+    t0 = time.perf_counter()
+    callback = _Progress(f"port {Path(scene.path).name}") if progress else None
+    result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
+                        stride=grid.stride, workers=workers, progress=callback)
+    seconds = time.perf_counter() - t0
+    var = result.variance.astype(np.float64)
+    if np.isnan(var).any():
+        if random is None:
+            random = is_random(scene)
+        if random:
+            raise HarnessError(f"{scene.path}: the port cannot estimate a variance from one ray "
+                               "per sub-sample of a random scene: use --spp >= 2")
+        var = np.zeros_like(var)
+    return SideImage(f"port ({result.mode})", result.linear.astype(np.float64), var,
+                     np.clip(result.encoded.astype(np.float64), 0.0, 1.0), result.complexity,
+                     seconds)
+
+
+class _Progress:
+    """Port progress on stderr: a line every 5 s (or a bar on a terminal)."""
+
+    def __init__(self, label: str):
+        import sys
+        self.label, self.start, self.last = label, time.monotonic(), -1.0
+        self.stream = sys.stderr
+        self.tty = self.stream.isatty()
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.monotonic()
+        if done < total and now - self.last < (0.2 if self.tty else 5.0):
+            return
+        self.last = now
+        elapsed = now - self.start
+        eta = elapsed * (total - done) / done if done else 0.0
+        text = f"{self.label}: {100 * done // total:3d}% {elapsed:6.1f} s, ETA {eta:6.1f} s"
+        end = "" if self.tty and done < total else "\n"
+        self.stream.write(("\r" if self.tty else "") + text + end)
+        self.stream.flush()
