@@ -75,7 +75,11 @@ class TutorialBSDF(mi.BSDF):
     - pages 1 and 2: ``eval`` = :math:`L` (the tutorial lights every hit with the
       unflipped normal, also when seen from behind);
     - page 4: ``eval`` = :math:`(1 - R_f - T_r)\,L` when :math:`\omega_i` is in front of
-      the geometric normal, 0 behind it (the tutorial's "inside" hit adds no light).
+      ``si.n``, 0 behind it (the tutorial's "inside" hit adds no light). ``si.n`` is the
+      geometric normal, or under :monosp:`noisebump` the unbumped shading normal (the
+      tutorial's side test); on a blob mesh without a bump the geometric normal decides,
+      which differs from the tutorial near creases and necks (wrap the BSDF in
+      :monosp:`noisebump` with ``bumplevel`` 0 to get the tutorial's side there).
 
     **Continuation** (``sample``, delta events only; weights are the tutorial's
     multipliers of its path coefficient, NOT divided by the event probability;
@@ -86,8 +90,8 @@ class TutorialBSDF(mi.BSDF):
     - pages 1 and 2: if ``reflection`` > 0 the mirror direction with weight
       ``reflection`` (probability 1), else an invalid sample (weight 0) that ends the path;
     - page 4 (spec 2.7): with :math:`\cos\theta_i = |\omega_i \cdot n|` for the facing
-      (possibly bumped) normal, :math:`n_1 = 1, n_2 = \mathtt{density}` in front of the
-      geometric normal and :math:`n_1 = \mathtt{density}, n_2 = 1` behind it: Fresnel
+      (possibly bumped) normal, :math:`n_1 = 1, n_2 = \mathtt{density}` in front of
+      ``si.n`` and :math:`n_1 = \mathtt{density}, n_2 = 1` behind it: Fresnel
       :math:`R` (:math:`((n_1 - n_2)/(n_1 + n_2))^2` and :math:`\cos\theta_t = 1` for
       :math:`\cos\theta_i \ge 0.999`; :math:`R = 1` for :math:`\sin^2\theta_t > 0.9999`,
       total internal reflection; else the mean of the s and p reflectances); density 0
@@ -177,7 +181,9 @@ class TutorialBSDF(mi.BSDF):
     # -- the tutorial's formulas ----------------------------------------------------------
     @staticmethod
     def _inside(si: mi.SurfaceInteraction3f) -> mi.Bool:
-        """wi behind the geometric normal: the tutorial's "inside" hit (before bumping)."""
+        """wi behind ``si.n``: the tutorial's "inside" hit (decided before bumping). Standalone
+        ``si.n`` is the geometric normal; under :monosp:`noisebump` it is the unbumped
+        shading normal, which is what the tutorial tests (they differ on a blob mesh)."""
         return dr.dot(si.n, si.sh_frame.to_world(si.wi)) < 0
 
     def _fresnel(self, cos_i: mi.Float, inside: mi.Bool):
