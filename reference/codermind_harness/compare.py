@@ -54,15 +54,36 @@ class Options:
     thresholds: Thresholds = field(default_factory=Thresholds)
     progress: bool = True
     workers: int | None = None
+    noise_floor: bool = False     #: also render the port with seed + 1 (FLIP of noise alone)
 
 
 def log(message: str) -> None:
     print(f"compare: {message}", file=sys.stderr, flush=True)
 
 
-def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
-    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers)."""
+def labels(paths: list[str | os.PathLike]) -> list[str]:
+    """A distinct file-name stem per scene: the file's stem, prefixed with its folder's name
+    (and suffixed with its type) where two scenes would share it (``page1-scene``)."""
+    paths = [Path(p) for p in paths]
+    names = [p.stem for p in paths]
+    for attempt in (lambda p: f"{p.parent.name}-{p.stem}",
+                    lambda p: f"{p.parent.name}-{p.stem}-{p.suffix.lstrip('.')}"):
+        if len(set(names)) == len(names):
+            break
+        names = [attempt(p) if names.count(n) > 1 else n for p, n in zip(paths, names)]
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:                         # the same file twice
+        seen[n] = seen.get(n, 0) + 1
+        out.append(n if seen[n] == 1 else f"{n}-{seen[n]}")
+    return out
+
+
+def compare_scene(path: str | os.PathLike, opt: Options, label: str | None = None) -> dict:
+    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
+    ``label``: the stem of the files written for it (default: the scene file's stem)."""
     txt, xml = sides.twin_of(path)
+    label = label or Path(path).stem
     scene = sides.parse(txt)
     random = sides.is_random(scene)
     spp = opt.spp or sides.default_spp(scene)
@@ -78,7 +99,7 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
     out = Path(opt.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if xml is None:
-        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error)
+        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error, name=f"{label}.mitsuba.xml")
         defines = dict(opt.defines)
     else:
         defines = dict(opt.defines)
@@ -106,19 +127,24 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
     rel = metrics.rel_mse(mits.linear, port.linear)
     rel_noise = float(np.mean((mits.variance + port.variance)
                               / (np.square(port.linear) + metrics.REL_MSE_EPS)))
+    flip_noise = None
+    if opt.noise_floor:
+        log(f"{txt.name}: the port again with seed {opt.seed + 1} (noise floor)")
+        again = sides.render_port(scene, grid, spp, opt.seed + 1, exposure, opt.port_mode,
+                                  random, opt.workers, opt.progress)
+        flip_noise = metrics.flip(port.encoded[rows], again.encoded[rows])[0]
 
     failures = []
     if z.pass_rate < th.pass_rate:
         failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
     if flip_mean > th.flip:
         failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
-    stem = txt.stem if Path(path).suffix.lower() != ".xml" else Path(path).stem
-    heatmap = out / f"{stem}.compare.png"
+    heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
-                  f"{stem}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
+                  f"{label}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
                   f"relMSE {rel:.3g}")
     record = {
-        "scene": str(path), "tutorial_scene": str(txt), "xml": str(xml), "page": scene.page,
+        "scene": str(path), "label": label, "tutorial_scene": str(txt), "xml": str(xml), "page": scene.page,
         "width": scene.width, "height": scene.height,
         "rect": list(grid.rect), "stride": grid.stride, "pixels": grid.pixels,
         "sub_samples": int(z.passed_map.size), "spp": spp, "seed": opt.seed,
@@ -131,7 +157,8 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
-        "flip_mean": flip_mean, "rel_mse": rel, "rel_mse_noise": rel_noise,
+        "flip_mean": flip_mean, "flip_noise": flip_noise, "rel_mse": rel,
+        "rel_mse_noise": rel_noise,
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
@@ -193,15 +220,15 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
 def format_table(records: list[dict]) -> str:
     """A fixed-width table, one row per scene."""
     head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
-            "z sd", "FLIP", "relMSE", "noise", "port s", "mitsuba s", "verdict")
+            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "port s", "mitsuba s", "verdict")
     rows = []
     for r in records:
         z = r["z_test"]
-        rows.append((Path(r["scene"]).name, str(r["page"]), str(r["pixels"]), str(r["spp"]),
+        rows.append((r["label"], str(r["page"]), str(r["pixels"]), str(r["spp"]),
                      "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
                      _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
-                     f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
+                     _num(r["flip_noise"], ".5f"), f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
                      f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
                      "pass" if r["passed"] else "FAIL"))
     widths = [max(len(x) for x in col) for col in zip(head, *rows)]
@@ -235,7 +262,7 @@ def run(scenes: list[str], opt: Options, variant: str | None = None) -> tuple[li
     set_variant(variant)
     import codermind  # noqa: F401  (registers the plugins)
     t0 = time.perf_counter()
-    records = [compare_scene(s, opt) for s in scenes]
+    records = [compare_scene(s, opt, label) for s, label in zip(scenes, labels(scenes))]
     out = Path(opt.out_dir)
     table = format_table(records)
     write_json(out / "compare.json", {"options": _options_json(opt), "scenes": records,

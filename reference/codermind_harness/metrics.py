@@ -49,9 +49,9 @@ class ZTest:
     tests: int                 #: N, the number of (sub-sample, channel) tests
     alpha: float               #: per-test level after the Sidak correction
     z_critical: float          #: |z| above which a noisy channel fails
-    noiseless: int             #: sub-samples with zero variance on both sides
-    noisy_tests: int           #: tests with a positive variance
-    max_z: float | None        #: largest |z| among noisy channels (None: no noisy channel)
+    noiseless: int             #: sub-samples whose noise (sd) is within the float tolerance
+    noisy_tests: int           #: tests whose noise exceeds the float tolerance
+    max_z: float | None        #: largest |z| among noisy tests (None: no noisy test)
     z_sd: float | None         #: sd of the signed z over noisy channels (about 1 when the
                                #: sides agree and the variances are right)
     z_mean: float | None       #: mean of the signed z over noisy channels (about 0)
@@ -88,14 +88,17 @@ def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.
     z_crit = float(-ndtri(level / 2.0))
     diff = np.abs(a - b)
     var = va + vb
-    within = diff <= rtol * np.maximum(np.abs(a), np.abs(b)) + atol
-    noisy = var > 0
+    tol = rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    within = diff <= tol
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(noisy, diff / np.sqrt(np.where(noisy, var, 1.0)), np.where(within, 0.0, np.inf))
-        signed = np.where(noisy, (a - b) / np.sqrt(np.where(noisy, var, 1.0)), 0.0)
-    ok = within | (noisy & (z <= z_crit))
+        sd = np.sqrt(var)
+        z = np.where(var > 0, diff / np.where(var > 0, sd, 1.0), np.where(within, 0.0, np.inf))
+    ok = within | ((var > 0) & (z <= z_crit))
     passed = ok.all(axis=2)
-    zs = signed[noisy]
+    # The z statistics describe the channels whose noise exceeds the float tolerance: a sum of
+    # equal values in another order has a variance of 1e-20 or so, whose z means nothing.
+    noisy = sd > tol
+    zs = ((a - b) / np.where(noisy, sd, 1.0))[noisy]
     return ZTest(float(passed.mean()), float(ok.mean()), tests, float(level), z_crit,
                  int((~noisy).all(axis=2).sum()), int(zs.size),
                  float(np.abs(zs).max()) if zs.size else None,
