@@ -79,11 +79,22 @@ def labels(paths: list[str | os.PathLike]) -> list[str]:
     return out
 
 
-def compare_scene(path: str | os.PathLike, opt: Options, label: str | None = None) -> dict:
-    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
-    ``label``: the stem of the files written for it (default: the scene file's stem)."""
+@dataclass
+class Case:
+    """A scene checked and ready to compare (:func:`prepare`)."""
+    path: Path                    #: as given
+    txt: Path                     #: the tutorial scene file
+    xml: Path | None              #: the Mitsuba XML given, None: convert ``txt``
+    scene: object                 #: codermind_ref.Scene
+    grid: Grid
+    random: bool
+    spp: int
+
+
+def prepare(path: str | os.PathLike, opt: Options) -> Case:
+    """Everything about one scene that can be wrong before rendering (its twin, its parse, the
+    grid, the options for its page), as a HarnessError naming the problem."""
     txt, xml = sides.twin_of(path)
-    label = label or Path(path).stem
     scene = sides.parse(txt)
     random = sides.is_random(scene)
     spp = opt.spp or sides.default_spp(scene)
@@ -92,10 +103,23 @@ def compare_scene(path: str | os.PathLike, opt: Options, label: str | None = Non
     if random and spp < 2:
         raise HarnessError(f"{txt}: a random scene needs --spp >= 2 (both sides estimate "
                            "their variance from their samples)")
+    if opt.exposure is not None and scene.page == 1:
+        raise HarnessError(f"{txt}: page 1 has no exposure")
+    grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
+    strip_free_rows(grid, scene.page)
+    return Case(Path(path), txt, xml, scene, grid, random, spp)
+
+
+def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | None = None) -> dict:
+    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
+    ``label``: the stem of the files written for it (default: the scene file's stem)."""
+    case = path if isinstance(path, Case) else prepare(path, opt)
+    path, txt, xml, scene, grid = case.path, case.txt, case.xml, case.scene, case.grid
+    random, spp = case.random, case.spp
+    label = label or path.stem
     if scene.page != 4 and spp != 1:
         log(f"{txt.name}: page {scene.page} is deterministic; --spp {spp} changes nothing "
             "(the port ignores it)")
-    grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
     out = Path(opt.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if xml is None:
@@ -110,8 +134,6 @@ def compare_scene(path: str | os.PathLike, opt: Options, label: str | None = Non
     exposure = opt.exposure
     if exposure is None:
         exposure = sides.port_exposure(scene, opt.seed, opt.port_mode)
-    elif scene.page == 1:
-        raise HarnessError(f"{txt}: page 1 has no exposure")
     log(f"{txt.name}: page {scene.page}, {grid.pixels} pixels, {spp} spp, seed {opt.seed}"
         + ("" if exposure is None else f", exposure {exposure:.6g}"))
 
@@ -187,8 +209,8 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     import matplotlib.pyplot as plt
     from codermind.imageio import atomic_path
     h, w = mits.shape[:2]
-    scale = min(1.0, 5.0 / max(w / 100, 1e-9))
-    fig, axes = plt.subplots(2, 2, figsize=(2 * w / 100 * scale + 1.5, 2 * h / 100 * scale + 1.2),
+    panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
+    fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
                              dpi=100, constrained_layout=True)
     axes[0, 0].imshow(mits, interpolation="nearest")
     axes[0, 0].set_title("Mitsuba", fontsize=9)
@@ -262,7 +284,8 @@ def run(scenes: list[str], opt: Options, variant: str | None = None) -> tuple[li
     set_variant(variant)
     import codermind  # noqa: F401  (registers the plugins)
     t0 = time.perf_counter()
-    records = [compare_scene(s, opt, label) for s, label in zip(scenes, labels(scenes))]
+    cases = [prepare(s, opt) for s in scenes]      # bad input stops before any rendering
+    records = [compare_scene(c, opt, label) for c, label in zip(cases, labels(scenes))]
     out = Path(opt.out_dir)
     table = format_table(records)
     write_json(out / "compare.json", {"options": _options_json(opt), "scenes": records,

@@ -4,18 +4,22 @@
 sides: one test per sub-sample (film pixel) and RGB channel of the linear radiance, with
 z = |a - b| / sqrt(var_a + var_b), each variance that of its side's mean. Its two-sided
 p-value is compared with alpha Sidak-corrected over all the tests made,
-1 - (1 - alpha)^(1/N). A sub-sample passes when all three channels pass. A channel also
-passes when |a - b| <= rtol max(|a|, |b|) + atol: a float tolerance for pixels that neither
-side samples randomly (variance 0 on both sides, e.g. pages 1-3), where float32 arithmetic
-in another order and Mitsuba's ray offsets (instead of the tutorial's 0.1 epsilon) move
-multi-bounce hit points; defaults rtol 1e-3, atol 1e-4 (radiance units: 1 is byte 255 on
-page 1), about a quarter of an 8-bit level.
+1 - (1 - alpha)^(1/N) (Mitsuba corrects over the pixels and counts passing channels; here
+N counts every channel and a sub-sample passes only when all three channels pass, which is
+stricter on both counts). A channel also passes when |a - b| <= rtol max(|a|, |b|) + atol:
+a float tolerance for pixels that neither side samples randomly (variance 0 on both sides,
+e.g. pages 1-3), where float32 arithmetic in another order and Mitsuba's ray offsets
+(instead of the tutorial's 0.1 epsilon) move multi-bounce hit points; defaults rtol 1e-3,
+atol 1e-4 (radiance units: 1 is byte 255 on page 1), about a quarter of an 8-bit level.
+The summary statistics of z (mean, sd, max) are taken over the channels whose noise sd
+exceeds that tolerance (a side that sums equal values in another order reports a variance
+of 1e-20, whose z means nothing).
 
 **FLIP** (:func:`flip`): NVIDIA's ``flip-evaluator`` (LDR-FLIP, default 67 pixels per degree)
 on sRGB-encoded images in [0, 1]. Its Python API prints a message and exits the process on
-some bad inputs (a size mismatch, a bad parameter) and silently accepts others (NaN, values
-outside [0, 1], integer images): :func:`check_ldr` refuses all of them first with
-:class:`FlipInputError`.
+some bad inputs (a path that does not exist, a bad parameter), raises on others (a size
+mismatch) and silently accepts the rest (NaN counts as no error, values outside [0, 1],
+integer images): :func:`check_ldr` refuses all of them first with :class:`FlipInputError`.
 
 **Relative MSE** (:func:`rel_mse`): mean over sub-samples and channels of
 (test - ref)^2 / (ref^2 + 0.01), on linear radiance (the usual 0.01 keeps dark pixels from
@@ -149,6 +153,8 @@ def flip(reference: np.ndarray, test: np.ndarray) -> tuple[float, np.ndarray]:
         error_map, mean, _ = flip_evaluator.evaluate(ref, tst, "LDR", applyMagma=False)
     except SystemExit as e:     # its Python layer exits on what it dislikes
         raise FlipInputError(f"FLIP refused its input (exit status {e.code})") from None
+    except RuntimeError as e:   # its C++ layer raises on what it dislikes
+        raise FlipInputError(f"FLIP refused its input: {' '.join(str(e).split())}") from None
     error_map = np.asarray(error_map, dtype=np.float64)
     if error_map.ndim == 3:
         error_map = error_map[..., 0]
