@@ -219,7 +219,8 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     full_flip = np.full((h, w), np.nan)
     full_flip[rows] = flip_map
     im = axes[1, 0].imshow(full_flip, cmap="magma", vmin=0.0, vmax=1.0, interpolation="nearest")
-    axes[1, 0].set_title("FLIP (strip rows blank)", fontsize=9)
+    axes[1, 0].set_title("FLIP" + (" (strip rows blank)" if flip_map.shape[0] < h else ""),
+                         fontsize=9)
     fig.colorbar(im, ax=axes[1, 0], shrink=0.8)
     zmap = np.minimum(z.z_map, 2 * z.z_critical)
     im = axes[1, 1].imshow(zmap, cmap="viridis", vmin=0.0, vmax=z.z_critical,
