@@ -4,10 +4,12 @@ positions and sample counts, and compare them: a two-sample z-test per sub-sampl
 of the linear radiance (Sidak-corrected alpha 0.01; pixels without noise on either side must
 agree within rtol 1e-3 + atol 1e-4), mean FLIP on the displayed images at the same exposure,
 relative MSE. Writes OUT/compare.json, OUT/compare.txt (the table, also printed) and
-OUT/SCENE.compare.png (images, FLIP map, |z| map). Exit status 0 when every scene passes
-(pass rate >= 0.99 and mean FLIP <= 0.01 by default), 1 when one fails, 2 on bad input.
+OUT/SCENE.compare.png (images, FLIP map, |z| map; SCENE is the file's stem, prefixed with its
+folder where two scenes share it). Exit status 0 when every scene passes (pass rate >= 0.99
+and mean FLIP <= 0.01 by default), 1 when one fails, 2 on bad input.
 
-SCENE is a tutorial scene file (.txt: converted with the full model into OUT) or a converted
+SCENE is a tutorial scene file (.txt: converted with the full model into
+OUT/SCENE.mitsuba.xml) or a converted
 Mitsuba XML (.xml: rendered as it is, against the scene file its converter header names, or
 the .txt of the same name next to it)."""
 
