@@ -149,12 +149,16 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     rel = metrics.rel_mse(mits.linear, port.linear)
     rel_noise = float(np.mean((mits.variance + port.variance)
                               / (np.square(port.linear) + metrics.REL_MSE_EPS)))
-    flip_noise = None
+    flip_noise = noise_z = None
     if opt.noise_floor:
         log(f"{txt.name}: the port again with seed {opt.seed + 1} (noise floor)")
         again = sides.render_port(scene, grid, spp, opt.seed + 1, exposure, opt.port_mode,
                                   random, opt.workers, opt.progress)
         flip_noise = metrics.flip(port.encoded[rows], again.encoded[rows])[0]
+        zn = metrics.z_test(again.linear, again.variance, port.linear, port.variance,
+                            th.alpha, th.rtol, th.atol)
+        noise_z = {"pass_rate": zn.pass_rate, "failing_sub_samples": int((~zn.passed_map).sum()),
+                   "max_abs_z": zn.max_z, "z_sd": zn.z_sd}
 
     failures = []
     if z.pass_rate < th.pass_rate:
@@ -179,7 +183,8 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
-        "flip_mean": flip_mean, "flip_noise": flip_noise, "rel_mse": rel,
+        "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
+        "rel_mse": rel,
         "rel_mse_noise": rel_noise,
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip},
         "passed": not failures, "failures": failures,

@@ -80,8 +80,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-flip", type=_fraction, default=0.01, metavar="F",
                    help="largest mean FLIP (default 0.01)")
     p.add_argument("--noise-floor", action="store_true",
-                   help="also render the port with seed + 1 and report the FLIP of the noise "
-                        "alone (port vs port), to tell noise from disagreement")
+                   help="also render the port with seed + 1 and report FLIP and the z-test of "
+                        "the port against itself (noise alone), to tell noise from disagreement")
     p.add_argument("--workers", type=_positive, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
