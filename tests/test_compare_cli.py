@@ -107,3 +107,10 @@ def test_cropped_and_strided_mitsuba_equals_the_full_render(llvm, tmp_path):
     expected = full.linear[rows.ravel()][:, cols.ravel()]
     assert part.linear.shape == (2 * grid.ys.size, 2 * grid.xs.size, 3)
     np.testing.assert_array_equal(part.linear, expected)
+
+
+def test_unwritable_output_folder_is_one_line_exit_2(tmp_path):
+    (tmp_path / "file").write_text("")
+    r = run_cli("compare", SCENES / "page1.txt", "--stride", "8", "-o", tmp_path / "file" / "out")
+    assert r.returncode == 2
+    assert f"{tmp_path / 'file' / 'out'}: " in r.stderr and "Traceback" not in r.stderr

@@ -112,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
         records, status = compare(args.scenes, opt, args.variant)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
+    except OSError as e:        # the output folder or a file in it cannot be written
+        raise CodermindError(f"{e.filename or opt.out_dir}: {e.strerror or e}") from None
     print(format_table(records))
     for r in records:
         if r["failures"]:
