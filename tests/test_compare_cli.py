@@ -39,7 +39,7 @@ def test_page1_strided_compare_passes(tmp_path):
 
 
 def test_page4_crop_compare_passes(tmp_path):
-    """Lens blur, marble, floor and sky at 64 samples on both sides (the default)."""
+    """Lens blur over the marble sphere and the floor, 64 samples on both sides (the default)."""
     r = run_cli("compare", SCENES / "page4.txt", "--rect", "392,130,440,170", "-o", tmp_path,
                 "-q", "--workers", "1")
     assert r.returncode == 0, r.stdout + r.stderr
