@@ -54,14 +54,46 @@ class Options:
     thresholds: Thresholds = field(default_factory=Thresholds)
     progress: bool = True
     workers: int | None = None
+    noise_floor: bool = False     #: also render the port with seed + 1 (FLIP of noise alone)
 
 
 def log(message: str) -> None:
     print(f"compare: {message}", file=sys.stderr, flush=True)
 
 
-def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
-    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers)."""
+def labels(paths: list[str | os.PathLike]) -> list[str]:
+    """A distinct file-name stem per scene: the file's stem, prefixed with its folder's name
+    (and suffixed with its type) where two scenes would share it (``page1-scene``)."""
+    paths = [Path(p) for p in paths]
+    names = [p.stem for p in paths]
+    for attempt in (lambda p: f"{p.parent.name}-{p.stem}",
+                    lambda p: f"{p.parent.name}-{p.stem}-{p.suffix.lstrip('.')}"):
+        if len(set(names)) == len(names):
+            break
+        names = [attempt(p) if names.count(n) > 1 else n for p, n in zip(paths, names)]
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:                         # the same file twice
+        seen[n] = seen.get(n, 0) + 1
+        out.append(n if seen[n] == 1 else f"{n}-{seen[n]}")
+    return out
+
+
+@dataclass
+class Case:
+    """A scene checked and ready to compare (:func:`prepare`)."""
+    path: Path                    #: as given
+    txt: Path                     #: the tutorial scene file
+    xml: Path | None              #: the Mitsuba XML given, None: convert ``txt``
+    scene: object                 #: codermind_ref.Scene
+    grid: Grid
+    random: bool
+    spp: int
+
+
+def prepare(path: str | os.PathLike, opt: Options) -> Case:
+    """Everything about one scene that can be wrong before rendering (its twin, its parse, the
+    grid, the options for its page), as a HarnessError naming the problem."""
     txt, xml = sides.twin_of(path)
     scene = sides.parse(txt)
     random = sides.is_random(scene)
@@ -71,14 +103,27 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
     if random and spp < 2:
         raise HarnessError(f"{txt}: a random scene needs --spp >= 2 (both sides estimate "
                            "their variance from their samples)")
+    if opt.exposure is not None and scene.page == 1:
+        raise HarnessError(f"{txt}: page 1 has no exposure")
+    grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
+    strip_free_rows(grid, scene.page)
+    return Case(Path(path), txt, xml, scene, grid, random, spp)
+
+
+def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | None = None) -> dict:
+    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
+    ``label``: the stem of the files written for it (default: the scene file's stem)."""
+    case = path if isinstance(path, Case) else prepare(path, opt)
+    path, txt, xml, scene, grid = case.path, case.txt, case.xml, case.scene, case.grid
+    random, spp = case.random, case.spp
+    label = label or path.stem
     if scene.page != 4 and spp != 1:
         log(f"{txt.name}: page {scene.page} is deterministic; --spp {spp} changes nothing "
             "(the port ignores it)")
-    grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
     out = Path(opt.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if xml is None:
-        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error)
+        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error, name=f"{label}.mitsuba.xml")
         defines = dict(opt.defines)
     else:
         defines = dict(opt.defines)
@@ -89,8 +134,6 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
     exposure = opt.exposure
     if exposure is None:
         exposure = sides.port_exposure(scene, opt.seed, opt.port_mode)
-    elif scene.page == 1:
-        raise HarnessError(f"{txt}: page 1 has no exposure")
     log(f"{txt.name}: page {scene.page}, {grid.pixels} pixels, {spp} spp, seed {opt.seed}"
         + ("" if exposure is None else f", exposure {exposure:.6g}"))
 
@@ -106,19 +149,28 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
     rel = metrics.rel_mse(mits.linear, port.linear)
     rel_noise = float(np.mean((mits.variance + port.variance)
                               / (np.square(port.linear) + metrics.REL_MSE_EPS)))
+    flip_noise = noise_z = None
+    if opt.noise_floor:
+        log(f"{txt.name}: the port again with seed {opt.seed + 1} (noise floor)")
+        again = sides.render_port(scene, grid, spp, opt.seed + 1, exposure, opt.port_mode,
+                                  random, opt.workers, opt.progress)
+        flip_noise = metrics.flip(port.encoded[rows], again.encoded[rows])[0]
+        zn = metrics.z_test(again.linear, again.variance, port.linear, port.variance,
+                            th.alpha, th.rtol, th.atol)
+        noise_z = {"pass_rate": zn.pass_rate, "failing_sub_samples": int((~zn.passed_map).sum()),
+                   "max_abs_z": zn.max_z, "z_sd": zn.z_sd}
 
     failures = []
     if z.pass_rate < th.pass_rate:
         failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
     if flip_mean > th.flip:
         failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
-    stem = txt.stem if Path(path).suffix.lower() != ".xml" else Path(path).stem
-    heatmap = out / f"{stem}.compare.png"
+    heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
-                  f"{stem}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
+                  f"{label}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
                   f"relMSE {rel:.3g}")
     record = {
-        "scene": str(path), "tutorial_scene": str(txt), "xml": str(xml), "page": scene.page,
+        "scene": str(path), "label": label, "tutorial_scene": str(txt), "xml": str(xml), "page": scene.page,
         "width": scene.width, "height": scene.height,
         "rect": list(grid.rect), "stride": grid.stride, "pixels": grid.pixels,
         "sub_samples": int(z.passed_map.size), "spp": spp, "seed": opt.seed,
@@ -131,7 +183,9 @@ def compare_scene(path: str | os.PathLike, opt: Options) -> dict:
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
-        "flip_mean": flip_mean, "rel_mse": rel, "rel_mse_noise": rel_noise,
+        "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
+        "rel_mse": rel,
+        "rel_mse_noise": rel_noise,
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
@@ -160,8 +214,8 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     import matplotlib.pyplot as plt
     from codermind.imageio import atomic_path
     h, w = mits.shape[:2]
-    scale = min(1.0, 5.0 / max(w / 100, 1e-9))
-    fig, axes = plt.subplots(2, 2, figsize=(2 * w / 100 * scale + 1.5, 2 * h / 100 * scale + 1.2),
+    panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
+    fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
                              dpi=100, constrained_layout=True)
     axes[0, 0].imshow(mits, interpolation="nearest")
     axes[0, 0].set_title("Mitsuba", fontsize=9)
@@ -170,7 +224,8 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     full_flip = np.full((h, w), np.nan)
     full_flip[rows] = flip_map
     im = axes[1, 0].imshow(full_flip, cmap="magma", vmin=0.0, vmax=1.0, interpolation="nearest")
-    axes[1, 0].set_title("FLIP (strip rows blank)", fontsize=9)
+    axes[1, 0].set_title("FLIP" + (" (strip rows blank)" if flip_map.shape[0] < h else ""),
+                         fontsize=9)
     fig.colorbar(im, ax=axes[1, 0], shrink=0.8)
     zmap = np.minimum(z.z_map, 2 * z.z_critical)
     im = axes[1, 1].imshow(zmap, cmap="viridis", vmin=0.0, vmax=z.z_critical,
@@ -193,15 +248,15 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
 def format_table(records: list[dict]) -> str:
     """A fixed-width table, one row per scene."""
     head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
-            "z sd", "FLIP", "relMSE", "noise", "port s", "mitsuba s", "verdict")
+            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "port s", "mitsuba s", "verdict")
     rows = []
     for r in records:
         z = r["z_test"]
-        rows.append((Path(r["scene"]).name, str(r["page"]), str(r["pixels"]), str(r["spp"]),
+        rows.append((r["label"], str(r["page"]), str(r["pixels"]), str(r["spp"]),
                      "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
                      _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
-                     f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
+                     _num(r["flip_noise"], ".5f"), f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
                      f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
                      "pass" if r["passed"] else "FAIL"))
     widths = [max(len(x) for x in col) for col in zip(head, *rows)]
@@ -235,7 +290,8 @@ def run(scenes: list[str], opt: Options, variant: str | None = None) -> tuple[li
     set_variant(variant)
     import codermind  # noqa: F401  (registers the plugins)
     t0 = time.perf_counter()
-    records = [compare_scene(s, opt) for s in scenes]
+    cases = [prepare(s, opt) for s in scenes]      # bad input stops before any rendering
+    records = [compare_scene(c, opt, label) for c, label in zip(cases, labels(scenes))]
     out = Path(opt.out_dir)
     table = format_table(records)
     write_json(out / "compare.json", {"options": _options_json(opt), "scenes": records,

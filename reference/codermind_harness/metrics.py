@@ -4,18 +4,22 @@
 sides: one test per sub-sample (film pixel) and RGB channel of the linear radiance, with
 z = |a - b| / sqrt(var_a + var_b), each variance that of its side's mean. Its two-sided
 p-value is compared with alpha Sidak-corrected over all the tests made,
-1 - (1 - alpha)^(1/N). A sub-sample passes when all three channels pass. A channel also
-passes when |a - b| <= rtol max(|a|, |b|) + atol: a float tolerance for pixels that neither
-side samples randomly (variance 0 on both sides, e.g. pages 1-3), where float32 arithmetic
-in another order and Mitsuba's ray offsets (instead of the tutorial's 0.1 epsilon) move
-multi-bounce hit points; defaults rtol 1e-3, atol 1e-4 (radiance units: 1 is byte 255 on
-page 1), about a quarter of an 8-bit level.
+1 - (1 - alpha)^(1/N) (Mitsuba corrects over the pixels and counts passing channels; here
+N counts every channel and a sub-sample passes only when all three channels pass, which is
+stricter on both counts). A channel also passes when |a - b| <= rtol max(|a|, |b|) + atol:
+a float tolerance for pixels that neither side samples randomly (variance 0 on both sides,
+e.g. pages 1-3), where float32 arithmetic in another order and Mitsuba's ray offsets
+(instead of the tutorial's 0.1 epsilon) move multi-bounce hit points; defaults rtol 1e-3,
+atol 1e-4 (radiance units: 1 is byte 255 on page 1), about a quarter of an 8-bit level.
+The summary statistics of z (mean, sd, max) are taken over the channels whose noise sd
+exceeds that tolerance (a side that sums equal values in another order reports a variance
+of 1e-20, whose z means nothing).
 
 **FLIP** (:func:`flip`): NVIDIA's ``flip-evaluator`` (LDR-FLIP, default 67 pixels per degree)
 on sRGB-encoded images in [0, 1]. Its Python API prints a message and exits the process on
-some bad inputs (a size mismatch, a bad parameter) and silently accepts others (NaN, values
-outside [0, 1], integer images): :func:`check_ldr` refuses all of them first with
-:class:`FlipInputError`.
+some bad inputs (a path that does not exist, a bad parameter), raises on others (a size
+mismatch) and silently accepts the rest (NaN counts as no error, values outside [0, 1],
+integer images): :func:`check_ldr` refuses all of them first with :class:`FlipInputError`.
 
 **Relative MSE** (:func:`rel_mse`): mean over sub-samples and channels of
 (test - ref)^2 / (ref^2 + 0.01), on linear radiance (the usual 0.01 keeps dark pixels from
@@ -49,9 +53,9 @@ class ZTest:
     tests: int                 #: N, the number of (sub-sample, channel) tests
     alpha: float               #: per-test level after the Sidak correction
     z_critical: float          #: |z| above which a noisy channel fails
-    noiseless: int             #: sub-samples with zero variance on both sides
-    noisy_tests: int           #: tests with a positive variance
-    max_z: float | None        #: largest |z| among noisy channels (None: no noisy channel)
+    noiseless: int             #: sub-samples whose noise (sd) is within the float tolerance
+    noisy_tests: int           #: tests whose noise exceeds the float tolerance
+    max_z: float | None        #: largest |z| among noisy tests (None: no noisy test)
     z_sd: float | None         #: sd of the signed z over noisy channels (about 1 when the
                                #: sides agree and the variances are right)
     z_mean: float | None       #: mean of the signed z over noisy channels (about 0)
@@ -88,14 +92,17 @@ def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.
     z_crit = float(-ndtri(level / 2.0))
     diff = np.abs(a - b)
     var = va + vb
-    within = diff <= rtol * np.maximum(np.abs(a), np.abs(b)) + atol
-    noisy = var > 0
+    tol = rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    within = diff <= tol
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(noisy, diff / np.sqrt(np.where(noisy, var, 1.0)), np.where(within, 0.0, np.inf))
-        signed = np.where(noisy, (a - b) / np.sqrt(np.where(noisy, var, 1.0)), 0.0)
-    ok = within | (noisy & (z <= z_crit))
+        sd = np.sqrt(var)
+        z = np.where(var > 0, diff / np.where(var > 0, sd, 1.0), np.where(within, 0.0, np.inf))
+    ok = within | ((var > 0) & (z <= z_crit))
     passed = ok.all(axis=2)
-    zs = signed[noisy]
+    # The z statistics describe the channels whose noise exceeds the float tolerance: a sum of
+    # equal values in another order has a variance of 1e-20 or so, whose z means nothing.
+    noisy = sd > tol
+    zs = ((a - b) / np.where(noisy, sd, 1.0))[noisy]
     return ZTest(float(passed.mean()), float(ok.mean()), tests, float(level), z_crit,
                  int((~noisy).all(axis=2).sum()), int(zs.size),
                  float(np.abs(zs).max()) if zs.size else None,
@@ -146,6 +153,8 @@ def flip(reference: np.ndarray, test: np.ndarray) -> tuple[float, np.ndarray]:
         error_map, mean, _ = flip_evaluator.evaluate(ref, tst, "LDR", applyMagma=False)
     except SystemExit as e:     # its Python layer exits on what it dislikes
         raise FlipInputError(f"FLIP refused its input (exit status {e.code})") from None
+    except RuntimeError as e:   # its C++ layer raises on what it dislikes
+        raise FlipInputError(f"FLIP refused its input: {' '.join(str(e).split())}") from None
     error_map = np.asarray(error_map, dtype=np.float64)
     if error_map.ndim == 3:
         error_map = error_map[..., 0]

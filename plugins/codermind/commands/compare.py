@@ -4,10 +4,12 @@ positions and sample counts, and compare them: a two-sample z-test per sub-sampl
 of the linear radiance (Sidak-corrected alpha 0.01; pixels without noise on either side must
 agree within rtol 1e-3 + atol 1e-4), mean FLIP on the displayed images at the same exposure,
 relative MSE. Writes OUT/compare.json, OUT/compare.txt (the table, also printed) and
-OUT/SCENE.compare.png (images, FLIP map, |z| map). Exit status 0 when every scene passes
-(pass rate >= 0.99 and mean FLIP <= 0.01 by default), 1 when one fails, 2 on bad input.
+OUT/SCENE.compare.png (images, FLIP map, |z| map; SCENE is the file's stem, prefixed with its
+folder where two scenes share it). Exit status 0 when every scene passes (pass rate >= 0.99
+and mean FLIP <= 0.01 by default), 1 when one fails, 2 on bad input.
 
-SCENE is a tutorial scene file (.txt: converted with the full model into OUT) or a converted
+SCENE is a tutorial scene file (.txt: converted with the full model into
+OUT/SCENE.mitsuba.xml) or a converted
 Mitsuba XML (.xml: rendered as it is, against the scene file its converter header names, or
 the .txt of the same name next to it)."""
 
@@ -57,7 +59,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--spp", type=_positive, metavar="N",
                    help="samples per sub-sample on both sides (port Complexity = Mitsuba spp); "
                         "default 1 for scenes without randomness, else the scene's Complexity, "
-                        "at least 16")
+                        "at least 64 (FLIP needs the noise of both sides below its threshold)")
     p.add_argument("--seed", type=int, default=0, help="seed of both sides (default 0)")
     p.add_argument("--stride", type=_positive, default=1, metavar="K",
                    help="compare every K-th pixel in x and y (faster; default 1)")
@@ -77,6 +79,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="smallest z-test pass rate (default 0.99)")
     p.add_argument("--max-flip", type=_fraction, default=0.01, metavar="F",
                    help="largest mean FLIP (default 0.01)")
+    p.add_argument("--noise-floor", action="store_true",
+                   help="also render the port with seed + 1 and report FLIP and the z-test of "
+                        "the port against itself (noise alone), to tell noise from disagreement")
     p.add_argument("--workers", type=_positive, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -101,15 +106,18 @@ def run(args: argparse.Namespace) -> int:
                   exposure=args.exposure, blob_max_error=args.blob_max_error,
                   port_mode=args.port_mode, out_dir=Path(args.output), defines=defines,
                   thresholds=Thresholds(args.min_pass_rate, args.max_flip),
-                  progress=not args.quiet, workers=args.workers)
+                  progress=not args.quiet, workers=args.workers,
+                  noise_floor=args.noise_floor)
     try:
         records, status = compare(args.scenes, opt, args.variant)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
+    except OSError as e:        # the output folder or a file in it cannot be written
+        raise CodermindError(f"{e.filename or opt.out_dir}: {e.strerror or e}") from None
     print(format_table(records))
     for r in records:
         if r["failures"]:
-            print(f"{Path(r['scene']).name}: FAIL: {'; '.join(r['failures'])}")
+            print(f"{r['label']}: FAIL: {'; '.join(r['failures'])}")
     print(f"wrote {opt.out_dir / 'compare.json'}, {opt.out_dir / 'compare.txt'} and "
           f"{len(records)} heat map{'s' if len(records) != 1 else ''} "
           f"({', '.join(Path(r['heatmap']).name for r in records)})")

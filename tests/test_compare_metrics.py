@@ -1,0 +1,139 @@
+"""The statistics of ``codermind compare`` (codermind_harness.metrics) on synthetic images
+with known answers: the Sidak-corrected z-test, the float tolerance, FLIP's input guard,
+relative MSE."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from codermind_harness import metrics
+
+
+def noisy_means(rng, mean, sd_mean, shape):
+    """Per-pixel means with the given sd of the mean, and the variance each side reports."""
+    return mean + sd_mean * rng.standard_normal(shape), np.full(shape, sd_mean ** 2)
+
+
+def test_sidak_level_makes_the_family_level_alpha():
+    assert metrics.sidak_alpha(0.01, 1) == pytest.approx(0.01, rel=1e-12)
+    for n in (3, 1000, 3 * 1280 * 960):
+        level = metrics.sidak_alpha(0.01, n)
+        assert -math.expm1(n * math.log1p(-level)) == pytest.approx(0.01, rel=1e-12)
+        assert level == pytest.approx(0.01 / n, rel=0.01)     # Bonferroni, to first order
+
+
+def test_critical_z_is_the_two_sided_normal_quantile():
+    zero = np.zeros((1, 1, 3))
+    z = metrics.z_test(zero, zero, zero, zero)
+    level = 1 - 0.99 ** (1 / 3)
+    assert z.tests == 3 and z.alpha == pytest.approx(level)
+    assert math.erfc(z.z_critical / math.sqrt(2)) == pytest.approx(level, rel=1e-9)
+
+
+def test_z_is_the_difference_over_the_combined_sd():
+    a = np.full((1, 2, 3), 1.0)
+    b = np.zeros((1, 2, 3))
+    va = np.stack([np.full(3, 0.125), np.full(3, 0.005)])[None]   # sd 0.5 / 0.1 combined
+    z = metrics.z_test(a, va, b, va)
+    assert z.z_map[0] == pytest.approx([2.0, 10.0])
+    assert z.passed_map.tolist() == [[True, False]]     # z_critical is 2.94 for N = 6
+    assert z.pass_rate == 0.5 and z.channel_pass_rate == 0.5
+
+
+def test_same_distribution_passes_with_unit_z_spread():
+    rng = np.random.default_rng(1)
+    shape = (100, 100, 3)
+    mean = rng.uniform(0.1, 2.0, shape)
+    a, va = noisy_means(rng, mean, 0.05, shape)
+    b, vb = noisy_means(rng, mean, 0.02, shape)
+    z = metrics.z_test(a, va, b, vb)
+    # 30,000 tests at a family level of 0.01: P(any fails) = 0.01
+    assert z.pass_rate == 1.0
+    assert z.noisy_tests == 30_000 and z.noiseless == 0
+    assert abs(z.z_mean) < 0.03 and abs(z.z_sd - 1) < 0.03   # sd of the estimates ~0.006
+
+
+def test_a_bias_of_ten_sd_fails_exactly_where_it_is():
+    rng = np.random.default_rng(2)
+    shape = (40, 40, 3)
+    a, va = noisy_means(rng, 1.0, 0.01, shape)
+    b, vb = noisy_means(rng, 1.0, 0.01, shape)
+    a[:10, :, 1] += 10 * math.sqrt(2) * 0.01 + 0.1      # z about 17 > z_critical 4.9
+    z = metrics.z_test(a, va, b, vb)
+    assert not z.passed_map[:10].any() and z.passed_map[10:].all()
+    assert z.pass_rate == 0.75
+
+
+def test_noiseless_pixels_must_agree_within_the_float_tolerance():
+    a = np.full((1, 3, 3), 0.5)
+    b = a.copy()
+    b[0, 1] += 0.4 * (metrics.RTOL * 0.5 + metrics.ATOL)     # inside the tolerance
+    b[0, 2] += 2.0 * (metrics.RTOL * 0.5 + metrics.ATOL)     # outside: no noise excuses it
+    zero = np.zeros_like(a)
+    z = metrics.z_test(a, zero, b, zero)
+    assert z.passed_map.tolist() == [[True, True, False]]
+    assert z.z_map[0].tolist() == [0.0, 0.0, math.inf]
+    assert z.noiseless == 3 and z.noisy_tests == 0 and z.z_sd is None
+
+
+def test_rounding_variance_does_not_count_as_noise():
+    # a side summing 64 equal float values in another order reports a variance of ~1e-20
+    a = np.full((2, 2, 3), 0.0479050)
+    b = a + 6e-8
+    z = metrics.z_test(a, np.zeros_like(a), b, np.full_like(a, 3e-20))
+    assert z.pass_rate == 1.0
+    assert z.noisy_tests == 0 and z.max_z is None
+
+
+def test_z_test_refuses_bad_images():
+    good = np.zeros((2, 2, 3))
+    with pytest.raises(ValueError, match="one shape"):
+        metrics.z_test(good, good, np.zeros((2, 3, 3)), good)
+    bad = good.copy()
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        metrics.z_test(bad, good, good, good)
+    with pytest.raises(ValueError, match="variance"):
+        metrics.z_test(good, bad, good, good)
+
+
+def test_rel_mse_analytic():
+    ref = np.zeros((4, 4, 3))
+    assert metrics.rel_mse(ref + 0.1, ref) == pytest.approx(0.01 / 0.01)
+    assert metrics.rel_mse(ref + 2.0, ref + 1.0) == pytest.approx(1 / 1.01)
+    assert metrics.rel_mse(ref + 1.0, ref + 1.0) == 0.0
+    with pytest.raises(ValueError, match="shapes differ"):
+        metrics.rel_mse(ref, ref[:2])
+
+
+def test_flip_of_identical_images_is_zero_and_of_black_and_white_large():
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0, 1, (32, 32, 3))
+    mean, error_map = metrics.flip(img, img)
+    assert mean == 0.0 and error_map.shape == (32, 32)
+    mean, _ = metrics.flip(np.zeros((32, 32, 3)), np.ones((32, 32, 3)))
+    assert mean > 0.9
+
+
+def test_flip_evaluator_itself_exits_on_a_missing_path():
+    """Why the guard exists: the package calls sys.exit (pytest sees SystemExit)."""
+    import flip_evaluator
+    with pytest.raises(SystemExit):
+        flip_evaluator.evaluate("no/such/reference.png", "no/such/test.png", "LDR")
+
+
+@pytest.mark.parametrize("test, message", [
+    ("no/such/test.png", "numpy array"),
+    (np.zeros((8, 8, 3), dtype=np.uint8), "floating point"),
+    (np.zeros((8, 8)), r"\(H, W, 3\)"),
+    (np.zeros((0, 8, 3)), "empty"),
+    (np.full((8, 8, 3), np.nan), "NaN"),
+    (np.full((8, 8, 3), 1.5), r"\[0, 1\]"),
+    (np.zeros((8, 9, 3)), "differ in size"),
+])
+def test_flip_guard_refuses_bad_inputs_and_the_process_lives(test, message):
+    with pytest.raises(metrics.FlipInputError, match=message):
+        metrics.flip(np.zeros((8, 8, 3)), test)
