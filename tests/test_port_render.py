@@ -341,6 +341,21 @@ def test_inside_retrace_consumes_segments_only_in_strict(tmp_path):
     assert np.allclose(_trace(world, ref.CLEAN, late)[0], 0.5 * sky)
 
 
+def test_path_index_is_carried_only_in_strict(tmp_path):
+    # the eye at the centre of a glass sphere: every hit is "inside" at normal incidence.
+    # strict: the path index is still the camera's 1 = n2, so R = 0 and the ray refracts
+    # straight out; clean: n1 = Density 2, R = 1/9, Rf = 0.5/9, and the first draw reflects
+    world = _sphere_world(tmp_path, "Density = 2; Reflection = 0.5; Refraction = 1;")
+    d = np.array([[0.6], [0.0], [0.8]])
+    sky, behind = world.environment.lookup(d)[:, 0], world.environment.lookup(-d)[:, 0]
+    draws = np.full(rng.DRAWS, 0.9)
+    draws[2] = 0.01
+    assert np.allclose(_trace(world, ref.STRICT, draws)[0], sky)
+    # reflected back through the centre, then refracted out (weights 0.5 x 1)
+    assert np.allclose(_trace(world, ref.Quirks(path_index=False), draws)[0], 0.5 * behind)
+    assert np.allclose(_trace(world, ref.CLEAN, draws)[0], 0.5 * behind)
+
+
 def test_clean_inside_draw_picks_reflect_and_refract_in_proportion():
     rf, tr = np.full(1000, 0.3), np.full(1000, 0.5)
     u = (np.arange(1000) + 0.5) / 1000

@@ -1,4 +1,4 @@
-"""The four quirks of the original programs that ``clean`` mode removes (spec 2.6, 2.7).
+"""The five quirks of the original programs that ``clean`` mode removes (spec 2.6, 2.7).
 
 ``strict`` keeps all of them; ``clean`` none. Each can be toggled alone (``Quirks(...)``),
 which is how ``benchmarks/quirk_table.py`` measures what each one changes.
@@ -29,6 +29,13 @@ class Quirks:
     draws, each try consuming one of the 10 segments (clean: redraw among reflect/refract
     with probabilities Rf/(Rf+Tr), Tr/(Rf+Tr) without consuming a segment; the path ends if
     Rf + Tr = 0)."""
+    path_index: bool = True
+    """page 4: the Fresnel index n1 is path state, 1 at the camera and n2 after each
+    refraction, while n2 follows the side test (Density entering, 1 "inside"); where the side
+    test disagrees with the path's history (the blob's exact-field normal says "inside" for
+    some rays that come from the air) n1 = n2, R = 0 and the ray passes unbent into the glass,
+    which it then crosses with index 1 (clean: n1 follows the side too, Density inside and 1
+    outside, as a one-hit BSDF can do)."""
 
     @property
     def name(self) -> str:
@@ -40,7 +47,7 @@ class Quirks:
 
 
 STRICT = Quirks()
-CLEAN = Quirks(False, False, False, False)
+CLEAN = Quirks(False, False, False, False, False)
 
 
 def resolve(mode: "str | Quirks") -> Quirks:

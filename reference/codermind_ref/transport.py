@@ -139,6 +139,8 @@ def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
 
         refl, refr, dens = mt.reflection[mat], mt.refraction[mat], mt.density[mat]
         n2 = np.where(inside, 1.0, dens)
+        if not quirks.path_index:
+            n1 = np.where(inside, dens, 1.0)
         cos_i = np.abs(dot(d, n))
         fres = ((refl != 0.0) | (refr != 0.0)) & (dens != 0.0)
         r, cos_t = fresnel(n1, np.where(fres, n2, 1.0), cos_i)
