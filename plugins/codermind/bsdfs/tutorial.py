@@ -119,7 +119,10 @@ class TutorialBSDF(mi.BSDF):
     unbiased but adds noise, and the tutorial has none). Not reproduced (clean model):
     the tutorial applies its path coefficient twice to turbulence and marble lighting
     (spec 2.6); its inside re-draws count against the 10-segment limit; it adds the cube
-    map along the next direction when the segment limit is reached.
+    map along the next direction when the segment limit is reached; it carries the Fresnel
+    index :math:`n_1` along the path (a BSDF sees one hit: here :math:`n_1` follows the
+    side, ``density`` behind ``si.n``, 1 in front; they differ only where the side test
+    disagrees with the path's history, as on a few spots of the page-4 blob).
 
     .. tabs::
 
