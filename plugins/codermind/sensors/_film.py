@@ -1,6 +1,6 @@
 """Helpers shared by this package's sensors: where a film sample lies on the film (with
 the optional fixed position inside each pixel), the field of view, and checks of the
-camera-to-world transform."""
+camera-to-world transform, the clip distances."""
 
 from __future__ import annotations
 
@@ -10,7 +10,19 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from codermind.params import number
+from codermind.params import FLOAT32_MAX, number
+
+
+def read_clip(props: mi.Properties, plugin: str) -> tuple[float, float]:
+    """``near_clip`` and ``far_clip`` (defaults 0.01, 10000): 0 <= near < far, near finite
+    in float32 (far may be infinite)."""
+    near, far = number(props, plugin, "near_clip", 1e-2), number(props, plugin, "far_clip", 1e4)
+    if not near <= FLOAT32_MAX:
+        raise ValueError(f"{plugin}: 'near_clip' must be finite in float32, got {near:g}")
+    if not 0.0 <= near < far:
+        raise ValueError(f"{plugin}: need 0 <= 'near_clip' < 'far_clip', got {near:g} and "
+                         f"{far:g}")
+    return near, far
 
 
 def read_pixel_offset(props: mi.Properties, plugin: str) -> tuple[float, float] | None:

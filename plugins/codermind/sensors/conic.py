@@ -6,8 +6,8 @@ import drjit as dr
 import mitsuba as mi
 
 from codermind.params import FLOAT32_MAX, number
-from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_pixel_offset,
-                                    to_world_matrix, x_fov)
+from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_clip,
+                                    read_pixel_offset, to_world_matrix, x_fov)
 
 
 class ConicCamera(mi.Sensor):
@@ -125,14 +125,7 @@ class ConicCamera(mi.Sensor):
         self.lens = str(props.get("lens", "disc"))
         if self.lens not in self.LENSES:
             raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got {self.lens!r}")
-        self.near_clip = number(props, "conic", "near_clip", 1e-2)
-        self.far_clip = number(props, "conic", "far_clip", 1e4)
-        if not self.near_clip <= FLOAT32_MAX:
-            raise ValueError(f"conic: 'near_clip' must be finite in float32, got "
-                             f"{self.near_clip:g}")
-        if not 0.0 <= self.near_clip < self.far_clip:
-            raise ValueError(f"conic: need 0 <= 'near_clip' < 'far_clip', got "
-                             f"{self.near_clip:g} and {self.far_clip:g}")
+        self.near_clip, self.far_clip = read_clip(props, "conic")
         self.aperture = number(props, "conic", "aperture", 0.0)
         self.focus_distance = number(props, "conic", "focus_distance", self.far_clip)
         if not 0.0 <= self.aperture <= FLOAT32_MAX:
@@ -199,7 +192,7 @@ class ConicCamera(mi.Sensor):
         start = o + d_world * near_t
         # A ray nearly parallel to the lens (aperture / focus_distance near the float32
         # range) meets the near plane beyond float32: it stays on its aperture point, empty.
-        ok = dr.isfinite(near_t) & dr.isfinite(start.x) & dr.isfinite(start.y) & dr.isfinite(start.z)
+        ok = dr.all(dr.isfinite(start))
         return dr.select(ok, start, o), d_world, dr.select(ok, far_t - near_t, 0.0)
 
     def sample_ray(self, time: mi.Float, sample1: mi.Float, sample2: mi.Point2f,

@@ -3,8 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from codermind.params import FLOAT32_MAX, number
-from codermind.sensors._film import FilmMap, origin_of, read_pixel_offset
+from codermind.sensors._film import FilmMap, origin_of, read_clip, read_pixel_offset
 
 
 class TutorialOrthoCamera(mi.Sensor):
@@ -70,14 +69,7 @@ class TutorialOrthoCamera(mi.Sensor):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.near_clip = number(props, "tutorialortho", "near_clip", 1e-2)
-        self.far_clip = number(props, "tutorialortho", "far_clip", 1e4)
-        if not self.near_clip <= FLOAT32_MAX:
-            raise ValueError(f"tutorialortho: 'near_clip' must be finite in float32, got "
-                             f"{self.near_clip:g}")
-        if not 0.0 <= self.near_clip < self.far_clip:
-            raise ValueError(f"tutorialortho: need 0 <= 'near_clip' < 'far_clip', got "
-                             f"{self.near_clip:g} and {self.far_clip:g}")
+        self.near_clip, self.far_clip = read_clip(props, "tutorialortho")
         film = self.film()
         size = film.size()
         self.film_map = FilmMap(film, read_pixel_offset(props, "tutorialortho"), "tutorialortho")
