@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, settings
 
 # Hypothesis (tests/test_properties.py, tests/test_parser_fuzz.py): CI runs the "ci" profile,
 # small and derandomized (the same examples every run, no deadline flakiness); a long run is
-# HYPOTHESIS_PROFILE=long (random examples; see the README for the command and its result).
+# HYPOTHESIS_PROFILE=long (random examples; see docs/harness.md for the command, docs/results/properties.md for its result).
 PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
 _COMMON = dict(deadline=None, database=None, print_blob=True,
                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,

@@ -1,4 +1,4 @@
-"""Render the README's images of the bundled scenes into this folder (PNG only).
+"""Render the images of the bundled scenes (README, docs) into this folder (PNG only).
 
 Run from anywhere: ``.venv/bin/python scenes/images/make_images.py [--only NAME ...]``.
 The tutorial scenes go through ``codermind render`` with the tutorial's image pipeline at the

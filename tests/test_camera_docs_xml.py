@@ -1,5 +1,6 @@
-"""The XML that README's "Cameras and lights" section gives for the tutorial's cameras and
-cube map (what a converter copies) loads and gives the spec's rays and settings."""
+"""The XML examples that the plugin reference gives for the tutorial's cameras and cube map
+(docs/reference/, generated from the docstrings; what a converter copies) load and give the
+spec's rays and settings."""
 
 from __future__ import annotations
 
@@ -13,8 +14,11 @@ from test_conic import spec_ray
 W, H = 640, 480
 
 
-def readme_elements(tag: str) -> list[str]:
-    text = (ROOT / "README.md").read_text().split("## Cameras and lights", 1)[1]
+PAGES = ("sensor-tutorialortho", "sensor-conic", "emitter-cubemap")
+
+
+def documented_elements(tag: str) -> list[str]:
+    text = "".join((ROOT / "docs" / "reference" / f"{page}.md").read_text() for page in PAGES)
     xml = "".join(re.findall(r"```xml\n(.*?)```", text, re.S))
     return [e.replace(f"<{tag} ", f'<{tag} version="3.0.0" ', 1)
             for e in re.findall(rf"(<{tag}\b.*?</{tag}>)", xml, re.S)]
@@ -31,9 +35,9 @@ def film_rays(mi, sensor):
     return c, r, lens, np.array(ray.o).T, np.array(ray.d).T, np.array(ray.maxt)
 
 
-def test_readme_cameras_give_the_tutorial_rays(llvm):
+def test_documented_cameras_give_the_tutorial_rays(llvm):
     mi = llvm
-    ortho, conic = readme_elements("sensor")
+    ortho, conic = documented_elements("sensor")
     # Page 1 (640 x 480 film): pixel (x, y) from (x, y, -1000) along +z, t < 2000.
     c, r, _, o, d, maxt = film_rays(mi, mi.load_string(ortho))
     assert np.abs(o[:, 0] - c).max() < 1e-4 and np.abs(o[:, 1] - (H - 1 - r)).max() < 1e-4
@@ -46,9 +50,9 @@ def test_readme_cameras_give_the_tutorial_rays(llvm):
     assert np.all(maxt == 2000)
 
 
-def test_readme_cubemap_is_the_page4_background(llvm, tutorial_dir):
+def test_documented_cubemap_is_the_page4_background(llvm, tutorial_dir):
     mi = llvm
-    (element,) = readme_elements("emitter")
+    (element,) = documented_elements("emitter")
     faces = tutorial_dir / "page4"
     emitter = mi.load_string(re.sub(r'value="(alp\w+\.tga)"', lambda m: f'value="{faces / m[1]}"',
                                     element))
