@@ -205,13 +205,13 @@ def _parse_docstring(plugin: Plugin, doc: str, where: str) -> None:
             plugin.parameters += _parameters(block, where)
         elif s == ".. math::":
             block, i = _block(lines, i + 1, base)
-            md += ["```math", *block, "```"]
+            md += ["", "```math", *block, "```", ""]
         elif s == ".. tabs::":
             i += 1                        # its code-tabs follow, more indented
         elif s.startswith(".. code-tab::"):
             lang = s.split("::", 1)[1].strip()
             block, i = _block(lines, i + 1, base)
-            md += ["", f"Example ({lang}):", "", f"```{lang}", *block, "```"]
+            md += ["", f"Example ({lang}):", "", f"```{lang}", *block, "```", ""]
         elif s.startswith(".. ") and "::" in s:
             raise ReferenceError(f"{where}: unsupported directive {s!r} "
                                  f"(teach docs/generate_reference.py or drop it)")
