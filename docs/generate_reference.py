@@ -212,6 +212,15 @@ def _parse_docstring(plugin: Plugin, doc: str, where: str) -> None:
             lang = s.split("::", 1)[1].strip()
             block, i = _block(lines, i + 1, base)
             md += ["", f"Example ({lang}):", "", f"```{lang}", *block, "```", ""]
+        elif re.match(r"\.\. (note|warning|important|tip)::", s):
+            kind = s[3:s.index("::")]
+            first = s.split("::", 1)[1].strip()
+            block, i = _block(lines, i + 1, base)
+            text = [first] + block if first else block
+            md += ["", f"> **{kind.capitalize()}:** " + inline(text[0] if text else ""),
+                   *[">" + (" " + inline(t) if t.strip() else "") for t in text[1:]], ""]
+        elif re.match(r"\.\. (subfigstart|subfigend|subfigure|figure|image)::", s):
+            _, i = _block(lines, i + 1, base)   # Mitsuba's rendered figures: none here
         elif s.startswith(".. ") and "::" in s:
             raise ReferenceError(f"{where}: unsupported directive {s!r} "
                                  f"(teach docs/generate_reference.py or drop it)")

@@ -64,6 +64,9 @@ PLUGIN_SOURCE = '''
 
         Body with ``code`` and :math:`x^2`.
 
+        .. note:: Read
+           this twice.
+
         .. math::
 
             a = b
@@ -90,6 +93,7 @@ def test_generator_finds_a_plugin_of_a_new_kind_anywhere_under_plugins(tmp_path)
     assert "# `thing` (integrator): A thing" in page
     assert r"| `max_depth` | integer | Longest path, $\|d\| \le 10$ (Default: 5) | exposed |" in page
     assert "Body with `code` and $x^2$." in page
+    assert "> **Note:** Read\n> this twice." in page
     assert "```math\na = b\n```" in page
     assert '```xml\n<integrator type="thing"/>\n```' in page
     assert "(../../plugins/newpkg/deep/thing.py)" in pages["README.md"]
