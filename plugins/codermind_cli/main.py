@@ -1,4 +1,4 @@
-"""The ``codermind`` command line: one sub-command per module in :mod:`codermind.commands`.
+"""The ``codermind`` command line: one sub-command per module in :mod:`codermind_cli.commands`.
 
 User errors (bad files, bad parameters) are printed as one line
 ``codermind: error: ...`` and exit with status 2, without a traceback.
@@ -13,7 +13,7 @@ import re
 import sys
 
 from . import commands
-from .errors import CodermindError
+from codermind.errors import CodermindError
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

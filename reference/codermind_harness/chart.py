@@ -204,7 +204,7 @@ class MitsubaRunner:
             t0 = time.perf_counter()
             scene, settings = load_mitsuba(self.xml, grid, {k: str(v) for k, v in defines.items()})
             load = time.perf_counter() - t0
-            from codermind.tutorial_render import light_scenes
+            from codermind.tutorial.render import light_scenes
             scenes = light_scenes(scene) if settings.lights == "sum" else [scene]
             tris = sum(int(s.face_count()) for s in scene.shapes() if s.is_mesh()) or None
             self.cache[key] = (grid, scenes, settings, load, tris)
@@ -213,7 +213,7 @@ class MitsubaRunner:
     def render(self, rect, defines: dict, spp: int, seed: int, variant: str = "llvm_ad_rgb",
                variance: bool = False, label: str | None = None):
         from codermind.render import Progress
-        from codermind.tutorial_render import render_linear
+        from codermind.tutorial.render import render_linear
         key, (grid, scenes, settings, load, tris) = self.get(rect, defines, variant)
         _set_variant(variant)
         if key != self.last and variant != "scalar_rgb":
@@ -290,8 +290,8 @@ def reference(runner, scene, rect, cfg: Config, det: bool):
 
 def chart_scene(name: str, cfg: Config) -> dict:
     """Every method's points on one bundled scene, with errors against the reference."""
-    from codermind.tutorial_model import choose
-    from codermind.tutorial_render import read_settings
+    from codermind.tutorial.model import choose
+    from codermind.tutorial.render import read_settings
     if name == "garden":
         return chart_garden(cfg)
     txt, xml = twin_of(ROOT / "scenes" / f"{name}.xml")
@@ -359,8 +359,8 @@ def chart_garden(cfg: Config) -> dict:
     resolution (``-D resx/resy``), against Mitsuba at ``ref_spp`` with another seed."""
     from codermind.render import Progress
     from codermind.scene import load_scene
-    from codermind.tutorial_image import srgb_encode
-    from codermind.tutorial_render import render_linear
+    from codermind.tutorial.image import srgb_encode
+    from codermind.tutorial.render import render_linear
     from .metrics import flip, rel_mse
     _set_variant("llvm_ad_rgb")
     xml = ROOT / "scenes" / "garden.xml"

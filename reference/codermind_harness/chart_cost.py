@@ -39,7 +39,7 @@ def pixels(cfg: Config) -> list[dict]:
     plain render, 4 spp), the port with every s-th pixel (stride s, Complexity 1)."""
     import tempfile
     from codermind.scene import load_scene
-    from codermind.tutorial_render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, render_linear
     txt, xml = twin_of(ROOT / "scenes" / "page4.xml")
     scene = parse(txt)
     runs: dict = {}

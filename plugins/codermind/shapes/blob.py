@@ -7,7 +7,7 @@ import time
 import mitsuba as mi
 import numpy as np
 
-from ._blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh import BlobMeshError, build_blob_mesh
 
 _CENTER = re.compile(r"center(\d+)$")
 

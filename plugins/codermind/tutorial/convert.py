@@ -1,6 +1,6 @@
 """``codermind convert`` as a function: parse, choose the model, write the XML atomically.
 
-The page-4 depth bound may need the exposure E (:mod:`codermind.tutorial_model`); it is then
+The page-4 depth bound may need the exposure E (:mod:`codermind.tutorial.model`); it is then
 computed as ``codermind render`` computes it, by tracing the probe grid through Mitsuba, on
 the full-depth version of the same XML (loaded from a string, faces named absolutely).
 """
@@ -11,10 +11,10 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import CodermindError
-from .imageio import atomic_path
-from .tutorial_model import DEFAULT_TARGET, FULL_DEPTH, choose
-from .tutorial_xml import Conversion, convert
+from ..errors import CodermindError
+from ..imageio import atomic_path
+from .model import DEFAULT_TARGET, FULL_DEPTH, choose
+from .xml import Conversion, convert
 
 
 @dataclass
@@ -37,12 +37,12 @@ def parse(scene_path: str | os.PathLike):
 
 def estimate_exposure(scene, target: float) -> float:
     """E of the full-depth model, from the probe grid traced through Mitsuba (llvm_ad_rgb)."""
-    from .variants import set_variant
+    from ..variants import set_variant
     set_variant(None)
     import mitsuba as mi
     import codermind  # noqa: F401  (registers the plugins)
-    from .scene import attach_emitters
-    from .tutorial_render import probe_exposure
+    from ..scene import attach_emitters
+    from .render import probe_exposure
     full = choose(scene, target, max_depth=FULL_DEPTH + 1, spp=1, exposure=1.0)
     conversion = convert(scene, None, full)
     try:

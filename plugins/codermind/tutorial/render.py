@@ -1,7 +1,7 @@
 """Rendering a converted tutorial scene with the tutorial's image pipeline.
 
 >>> import mitsuba as mi; mi.set_variant("llvm_ad_rgb"); import codermind
->>> from codermind import tutorial_render as tr
+>>> from codermind.tutorial import render as tr
 >>> scene, settings = tr.load("page4.xml")                 # settings: the codermind-tutorial block
 >>> result = tr.render(scene, settings, seed=0, variance=True)
 >>> result.linear      # float32 (2H, 2W, 3), display order: each sub-sample's mean radiance
@@ -50,11 +50,11 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .errors import CodermindError
-from .imageio import atomic_path, write_exr, write_png_bytes
-from .render import Progress, pass_plan, pass_seed, scene_spp
-from .scene import load_scene
-from .tutorial_image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
+from ..errors import CodermindError
+from ..imageio import atomic_path, write_exr, write_png_bytes
+from ..render import Progress, pass_plan, pass_seed, scene_spp
+from ..scene import load_scene
+from .image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
                              luminance, parse_block, probe_film_positions, tga_bytes,
                              tutorial_image)
 

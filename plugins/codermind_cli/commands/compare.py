@@ -88,7 +88,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     from .render import parse_defines
     from codermind_harness.compare import Options, Thresholds, format_table, run as compare
     from codermind_harness.sides import HarnessError

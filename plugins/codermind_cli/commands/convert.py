@@ -52,8 +52,8 @@ def _command_line(args: argparse.Namespace, scene: Path, out: Path) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
-    from ..tutorial_convert import convert_file
+    from codermind.errors import CodermindError
+    from codermind.tutorial.convert import convert_file
 
     for name, lo in (("max_depth", 1), ("spp", 1)):
         value = getattr(args, name)

@@ -64,7 +64,7 @@ class _Progress:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     import codermind_ref as ref
 
     scene_path = Path(args.scene)

@@ -57,7 +57,7 @@ def output_base(scene: Path, output: str | None) -> Path:
 
 
 def parse_defines(items: list[str]) -> dict[str, str]:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     defines = {}
     for item in items:
         name, sep, value = item.partition("=")
@@ -68,7 +68,7 @@ def parse_defines(items: list[str]) -> dict[str, str]:
 
 
 def parse_exposure(text: str) -> float | str:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     if text in ("probes", "render"):
         return text
     try:
@@ -81,7 +81,7 @@ def parse_exposure(text: str) -> float | str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     scene_path = Path(args.scene)
     if not scene_path.is_file():
         raise CodermindError(f"{scene_path}: no such scene file")
@@ -94,14 +94,14 @@ def run(args: argparse.Namespace) -> int:
 
     defines = parse_defines(args.define)
     exposure = parse_exposure(args.exposure)
-    from ..tutorial_render import read_settings
+    from codermind.tutorial.render import read_settings
     settings = None if args.plain else read_settings(scene_path)
 
-    from ..variants import set_variant
+    from codermind.variants import set_variant
     set_variant(args.variant)
-    from ..scene import load_scene
-    from ..render import Progress, render_passes, scene_spp
-    from ..imageio import write_exr, write_png_srgb
+    from codermind.scene import load_scene
+    from codermind.render import Progress, render_passes, scene_spp
+    from codermind.imageio import write_exr, write_png_srgb
 
     scene = load_scene(scene_path, **defines)
     if not scene.sensors():
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
               "writing)", file=sys.stderr, flush=True)
 
     if settings is not None:
-        from .. import tutorial_render
+        from codermind.tutorial import render as tutorial_render
         tutorial_render.check_film(scene, settings, scene_path)
     previous = signal.signal(signal.SIGINT, on_sigint)
     try:
@@ -166,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _finish_tutorial(result, base: Path) -> int:
-    from ..tutorial_render import write_outputs
+    from codermind.tutorial.render import write_outputs
     if result is None:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
