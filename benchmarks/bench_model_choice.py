@@ -52,7 +52,8 @@ def defaults(xml: Path) -> dict[str, str]:
 
 def weak_mirror(name: str, folder: Path) -> Path:
     """scenes/NAME.txt with Reflection 0.1, converted into ``folder``."""
-    from codermind.tutorial.convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     source = folder / f"{name}_weak.txt"
     source.write_text((SCENES / f"{name}.txt").read_text().replace("Reflection = 0.5;",
                                                                     "Reflection = 0.1;"))

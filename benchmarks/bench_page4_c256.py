@@ -75,7 +75,8 @@ def edit(text: str, section: str, key: str, value: str) -> str:
 def convert(source: Path, folder: Path, name: str, edits=(), **options) -> Path:
     """Convert ``source`` with ``edits`` ((section, key, value), ...) into ``folder``; the
     cube-map faces are linked next to the edited copy."""
-    from codermind.tutorial.convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     text = source.read_text()
     for section, key, value in edits:
         text = edit(text, section, key, value)

@@ -95,7 +95,8 @@ def test_python_api_variance_from_passes(llvm, tmp_path):
     from 16 one-sample passes is 0 where the lens does not matter (the sky) and > 0 on the
     blurred objects; on average it matches the spread between independent renders."""
     from codermind.tutorial import render as tr
-    from codermind.tutorial.convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     source = tmp_path / "page3.txt"
     source.write_text((SCENES / "page3.txt").read_text().replace("Dispersion = 0.0",
                                                                  "Dispersion = 20.0"))

@@ -21,7 +21,8 @@ def has_blob() -> bool:
 
 @pytest.mark.parametrize("name", TUTORIAL)
 def test_committed_xml_is_the_converter_output(name):
-    from codermind.tutorial.convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     from codermind_cli.commands.convert import _command_line
     import argparse
     source, xml = SCENES / f"{name}.txt", SCENES / f"{name}.xml"

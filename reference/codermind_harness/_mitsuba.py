@@ -15,7 +15,7 @@ def variant(name: str = "llvm_ad_rgb"):
 
 def load_error(mi, spec: dict) -> str | None:
     """The one-line message of the error ``mi.load_dict(spec)`` raises, or None if it loads."""
-    from codermind.cli import one_line
+    from codermind.errors import one_line
     try:
         mi.load_dict(spec)
     except Exception as e:      # Mitsuba wraps a plugin's ValueError in a RuntimeError

@@ -258,8 +258,8 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                 progress: bool = True) -> SideImage:
     import codermind_ref as ref
     t0 = time.perf_counter()
-    from codermind_cli.commands.reference import _Progress   # the port's own progress line
-    callback = _Progress(f"port {Path(scene.path).name}") if progress else None
+    from .progress import PortProgress
+    callback = PortProgress(f"port {Path(scene.path).name}") if progress else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
                         stride=grid.stride, workers=workers, progress=callback)
     seconds = time.perf_counter() - t0

@@ -1,4 +1,5 @@
-"""``codermind convert`` as a function: parse, choose the model, write the XML atomically.
+"""``codermind convert`` as a function: choose the model for a parsed scene (the caller parses
+it, e.g. with the port's parser), write the XML atomically.
 
 The page-4 depth bound may need the exposure E (:mod:`codermind.tutorial.model`); it is then
 computed as ``codermind render`` computes it, by tracing the probe grid through Mitsuba, on
@@ -9,7 +10,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from pathlib import Path
 
 from ..errors import CodermindError
 from ..imageio import atomic_path
@@ -21,18 +21,6 @@ from .xml import Conversion, convert
 class ConvertResult:
     conversion: Conversion
     parse_warnings: list[str]
-
-
-def parse(scene_path: str | os.PathLike):
-    """The port's parser with its errors as CodermindError ("file:line: message")."""
-    import codermind_ref
-    path = Path(scene_path)
-    if not path.is_file():
-        raise CodermindError(f"{path}: no such scene file")
-    try:
-        return codermind_ref.parse_scene(path)
-    except codermind_ref.SceneError as e:
-        raise CodermindError(str(e)) from None
 
 
 def estimate_exposure(scene, target: float) -> float:
@@ -67,9 +55,8 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
     return convert(scene, out, model, command)
 
 
-def convert_file(scene_path: str | os.PathLike, out: str | os.PathLike, **options
-                 ) -> ConvertResult:
-    scene = parse(scene_path)
+def convert_file(scene, out: str | os.PathLike, **options) -> ConvertResult:
+    """Convert a parsed scene and write the XML to ``out`` atomically."""
     conversion = convert_scene(scene, out, **options)
     try:
         with atomic_path(out) as tmp:
