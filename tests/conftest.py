@@ -45,8 +45,8 @@ def pytest_report_header(config) -> str:
 
 def run_cli(*args: str, cwd: str | os.PathLike | None = None, timeout: float = 300,
             env: dict | None = None) -> subprocess.CompletedProcess:
-    """Run ``python -m codermind ARGS`` and capture its output."""
-    return subprocess.run([sys.executable, "-m", "codermind", *map(str, args)], cwd=cwd,
+    """Run ``python -m codermind_cli ARGS`` (the ``codermind`` command) and capture its output."""
+    return subprocess.run([sys.executable, "-m", "codermind_cli", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout,
                           env={**os.environ, **(env or {})})
 

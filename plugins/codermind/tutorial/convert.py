@@ -1,6 +1,7 @@
-"""``codermind convert`` as a function: parse, choose the model, write the XML atomically.
+"""``codermind convert`` as a function: choose the model for a parsed scene (the caller parses
+it, e.g. with the port's parser), write the XML atomically.
 
-The page-4 depth bound may need the exposure E (:mod:`codermind.tutorial_model`); it is then
+The page-4 depth bound may need the exposure E (:mod:`codermind.tutorial.model`); it is then
 computed as ``codermind render`` computes it, by tracing the probe grid through Mitsuba, on
 the full-depth version of the same XML (loaded from a string, faces named absolutely).
 """
@@ -9,12 +10,11 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from pathlib import Path
 
-from .errors import CodermindError
-from .imageio import atomic_path
-from .tutorial_model import DEFAULT_TARGET, FULL_DEPTH, choose
-from .tutorial_xml import Conversion, convert
+from ..errors import CodermindError
+from ..imageio import atomic_path
+from .model import DEFAULT_TARGET, FULL_DEPTH, choose
+from .xml import Conversion, convert
 
 
 @dataclass
@@ -23,26 +23,14 @@ class ConvertResult:
     parse_warnings: list[str]
 
 
-def parse(scene_path: str | os.PathLike):
-    """The port's parser with its errors as CodermindError ("file:line: message")."""
-    import codermind_ref
-    path = Path(scene_path)
-    if not path.is_file():
-        raise CodermindError(f"{path}: no such scene file")
-    try:
-        return codermind_ref.parse_scene(path)
-    except codermind_ref.SceneError as e:
-        raise CodermindError(str(e)) from None
-
-
 def estimate_exposure(scene, target: float) -> float:
     """E of the full-depth model, from the probe grid traced through Mitsuba (llvm_ad_rgb)."""
-    from .variants import set_variant
+    from ..variants import set_variant
     set_variant(None)
     import mitsuba as mi
     import codermind  # noqa: F401  (registers the plugins)
-    from .scene import attach_emitters
-    from .tutorial_render import probe_exposure
+    from ..scene import attach_emitters
+    from .render import probe_exposure
     full = choose(scene, target, max_depth=FULL_DEPTH + 1, spp=1, exposure=1.0)
     conversion = convert(scene, None, full)
     try:
@@ -67,9 +55,8 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
     return convert(scene, out, model, command)
 
 
-def convert_file(scene_path: str | os.PathLike, out: str | os.PathLike, **options
-                 ) -> ConvertResult:
-    scene = parse(scene_path)
+def convert_file(scene, out: str | os.PathLike, **options) -> ConvertResult:
+    """Convert a parsed scene and write the XML to ``out`` atomically."""
     conversion = convert_scene(scene, out, **options)
     try:
         with atomic_path(out) as tmp:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._blobfield import BlobField
+from .field import BlobField
 
 MAX_SLIVERS = 5000  # per round of clean_slivers (a Python loop)
 

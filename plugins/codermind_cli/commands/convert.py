@@ -14,6 +14,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..args import positive_float, positive_int, tutorial_scene
+
 NAME = "convert"
 HELP = "convert a tutorial scene file to Mitsuba XML"
 
@@ -22,14 +24,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.txt", help="tutorial scene file")
     p.add_argument("-o", "--output", metavar="SCENE.xml",
                    help="output XML (default: the scene's name with .xml, in the current folder)")
-    p.add_argument("--target", type=float, default=None,
+    p.add_argument("--target", type=positive_float, default=None,
                    help="pixel-error target of the model choice, in 8-bit levels (default 0.5)")
-    p.add_argument("--max-depth", type=int, help="Mitsuba max_depth (path depth + 1; the "
+    p.add_argument("--max-depth", type=positive_int, help="Mitsuba max_depth (path depth + 1; the "
                                                  "tutorial's 10 segments: 11) instead of the choice")
-    p.add_argument("--spp", type=int, help="samples per sub-sample instead of the choice")
-    p.add_argument("--blob-max-error", type=float,
+    p.add_argument("--spp", type=positive_int, help="samples per sub-sample instead of the choice")
+    p.add_argument("--blob-max-error", type=positive_float,
                    help="blob tessellation error in world units instead of the choice")
-    p.add_argument("--exposure", type=float,
+    p.add_argument("--exposure", type=positive_float,
                    help="page 4: the exposure E to assume in the depth bound (default: traced "
                         "through Mitsuba's probe grid when the bound needs it)")
     p.add_argument("--lights", choices=("sum", "sample"),
@@ -52,22 +54,13 @@ def _command_line(args: argparse.Namespace, scene: Path, out: Path) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
-    from ..tutorial_convert import convert_file
+    from codermind.tutorial.convert import convert_file
 
-    for name, lo in (("max_depth", 1), ("spp", 1)):
-        value = getattr(args, name)
-        if value is not None and value < lo:
-            raise CodermindError(f"--{name.replace('_', '-')}: must be >= {lo}, got {value}")
-    for name in ("target", "blob_max_error", "exposure"):
-        value = getattr(args, name)
-        if value is not None and not value > 0:
-            raise CodermindError(f"--{name.replace('_', '-')}: must be > 0, got {value:g}")
     scene_path = Path(args.scene)
     out = Path(args.output) if args.output else Path.cwd() / (scene_path.stem + ".xml")
     if out.suffix.lower() != ".xml":
         out = out.with_suffix(".xml")
-    result = convert_file(scene_path, out, target=args.target, max_depth=args.max_depth,
+    result = convert_file(tutorial_scene(scene_path), out, target=args.target, max_depth=args.max_depth,
                           spp=args.spp, blob_max_error=args.blob_max_error,
                           exposure=args.exposure, lights=args.lights, command=_command_line(args, scene_path, out))
     if not args.quiet:

@@ -14,6 +14,8 @@ import signal
 import sys
 from pathlib import Path
 
+from ..args import define, exposure as exposure_option, positive_int, seed
+
 NAME = "render"
 HELP = "render a Mitsuba XML scene to EXR + PNG"
 
@@ -23,15 +25,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", metavar="OUT",
                    help="output path without extension (OUT.exr and OUT.png); "
                         "default: the scene's name in the current folder")
-    p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's sampler)")
+    p.add_argument("--spp", type=positive_int, help="samples per pixel (default: the scene's sampler)")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb; scalar_rgb for "
                                      "debugging, cuda_ad_rgb with a GPU)")
-    p.add_argument("--seed", type=int, default=0, help="base random seed (default 0)")
-    p.add_argument("--pass-spp", type=int, help="samples per pixel per pass (default: from image size)")
-    p.add_argument("-D", "--define", metavar="NAME=VALUE", action="append", default=[],
+    p.add_argument("--seed", type=seed, default=0, help="base random seed (default 0)")
+    p.add_argument("--pass-spp", type=positive_int, help="samples per pixel per pass (default: from image size)")
+    p.add_argument("-D", "--define", metavar="NAME=VALUE", type=define, action="append",
+                   default=[],
                    help="set an XML <default> parameter, e.g. -D max_depth=11 -D spp=4 "
                         "(repeatable)")
-    p.add_argument("--exposure", metavar="probes|render|E", default="probes",
+    p.add_argument("--exposure", metavar="probes|render|E", type=exposure_option, default="probes",
                    help="tutorial scenes, page 4: auto exposure from the probe grid traced "
                         "through Mitsuba (default, as the tutorial), from the render's own "
                         "sub-samples, or a fixed E (also page 2)")
@@ -56,52 +59,21 @@ def output_base(scene: Path, output: str | None) -> Path:
     return out.with_suffix("") if out.suffix.lower() in (".exr", ".png", ".tga") else out
 
 
-def parse_defines(items: list[str]) -> dict[str, str]:
-    from ..errors import CodermindError
-    defines = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        if not sep or not name.strip() or not name.strip().replace("_", "").isalnum():
-            raise CodermindError(f"-D {item}: expected NAME=VALUE")
-        defines[name.strip()] = value.strip()
-    return defines
-
-
-def parse_exposure(text: str) -> float | str:
-    from ..errors import CodermindError
-    if text in ("probes", "render"):
-        return text
-    try:
-        value = float(text)
-    except ValueError:
-        raise CodermindError(f"--exposure: 'probes', 'render' or a number, got {text!r}") from None
-    if not value > 0:
-        raise CodermindError(f"--exposure: must be > 0, got {text}")
-    return value
-
-
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     scene_path = Path(args.scene)
     if not scene_path.is_file():
         raise CodermindError(f"{scene_path}: no such scene file")
-    for name in ("spp", "pass_spp"):
-        value = getattr(args, name)
-        if value is not None and value < 1:
-            raise CodermindError(f"--{name.replace('_', '-')}: must be >= 1, got {value}")
-    if not 0 <= args.seed < 2**32:
-        raise CodermindError(f"--seed: must be in [0, 2^32), got {args.seed}")
 
-    defines = parse_defines(args.define)
-    exposure = parse_exposure(args.exposure)
-    from ..tutorial_render import read_settings
+    defines = dict(args.define)
+    from codermind.tutorial.render import read_settings
     settings = None if args.plain else read_settings(scene_path)
 
-    from ..variants import set_variant
+    from codermind.variants import set_variant
     set_variant(args.variant)
-    from ..scene import load_scene
-    from ..render import Progress, render_passes, scene_spp
-    from ..imageio import write_exr, write_png_srgb
+    from codermind.scene import load_scene
+    from codermind.render import Progress, render_passes, scene_spp
+    from codermind.imageio import write_exr, write_png_srgb
 
     scene = load_scene(scene_path, **defines)
     if not scene.sensors():
@@ -127,13 +99,13 @@ def run(args: argparse.Namespace) -> int:
               "writing)", file=sys.stderr, flush=True)
 
     if settings is not None:
-        from .. import tutorial_render
+        from codermind.tutorial import render as tutorial_render
         tutorial_render.check_film(scene, settings, scene_path)
     previous = signal.signal(signal.SIGINT, on_sigint)
     try:
         if settings is not None:
             result = tutorial_render.render(
-                scene, settings, spp=spp, seed=args.seed, exposure=exposure,
+                scene, settings, spp=spp, seed=args.seed, exposure=args.exposure,
                 lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
                 progress=Progress(spp, label=scene_path.name),
                 should_stop=lambda: stop["requested"])
@@ -166,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _finish_tutorial(result, base: Path) -> int:
-    from ..tutorial_render import write_outputs
+    from codermind.tutorial.render import write_outputs
     if result is None:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)

@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from ._blobfield import BlobField, zone_index
-from ._blobgeom import mesh_edges, face_normals, on_crease, min_angles_deg
-from ._blobroots import crease_points
+from .field import BlobField, zone_index
+from .geom import mesh_edges, face_normals, on_crease, min_angles_deg
+from .roots import crease_points
 
 SNAP = 0.2           # crease cuts closer than SNAP * edge length to a vertex move the vertex
 KEEP = 0.1           # ... or, if that vertex is on another crease, closer than KEEP: no cut

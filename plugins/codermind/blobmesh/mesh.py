@@ -43,10 +43,10 @@ from typing import Callable, NamedTuple
 import numpy as np
 from skimage.measure import marching_cubes
 
-from ._blobcreases import cut_creases
-from ._blobfield import FIELDS, BlobField, zone_index
-from ._blobgeom import clean_slivers, mesh_edges, face_normals, min_angles_deg
-from ._blobroots import crease_points_from, gradient_direction, onto_surface, along_normals, \
+from .creases import cut_creases
+from .field import FIELDS, BlobField, zone_index
+from .geom import clean_slivers, mesh_edges, face_normals, min_angles_deg
+from .roots import crease_points_from, gradient_direction, onto_surface, along_normals, \
     sphere_crossing
 
 NORMALS = ("exact", "field", "flat")

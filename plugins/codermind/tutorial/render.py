@@ -1,7 +1,7 @@
 """Rendering a converted tutorial scene with the tutorial's image pipeline.
 
 >>> import mitsuba as mi; mi.set_variant("llvm_ad_rgb"); import codermind
->>> from codermind import tutorial_render as tr
+>>> from codermind.tutorial import render as tr
 >>> scene, settings = tr.load("page4.xml")                 # settings: the codermind-tutorial block
 >>> result = tr.render(scene, settings, seed=0, variance=True)
 >>> result.linear      # float32 (2H, 2W, 3), display order: each sub-sample's mean radiance
@@ -46,25 +46,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .errors import CodermindError
-from .imageio import atomic_path, write_exr, write_png_bytes
-from .render import Progress, pass_plan, pass_seed, scene_spp
-from .scene import load_scene
-from .tutorial_image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
+from ..errors import CodermindError
+from ..imageio import atomic_path, write_exr, write_png_bytes
+from ..render import LANE_BUDGET, Progress, accumulate, pass_plan, pass_seed, scene_spp
+from ..scene import load_scene
+from .image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
                              luminance, parse_block, probe_film_positions, tga_bytes,
                              tutorial_image)
 
 #: Passes at least, when the variance is estimated from pass means.
 VARIANCE_PASSES = 16
-#: Samples in flight per pass (pixels x spp). Memory does not grow with it (Mitsuba's
-#: megakernel derives each sample from its index), and large passes pay the fixed cost of a
-#: pass (~0.3-0.8 s CPU on page 4) less often: at 1280 x 960 passes of 6 spp cost 0.48 s CPU
-#: per spp, of 27 spp 0.37 s, of 64 spp 0.34 s (benchmarks/bench_page4_c256.py).
-LANE_BUDGET = 1 << 25
 #: Seed stream of the probe rays (apart from the render passes').
 PROBE_STREAM = 0x7072
 
@@ -230,45 +224,10 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
-        return _passes(scenes, sensor, plan, spp, seed, variance, progress, should_stop)
+        return accumulate(scenes, sensor, plan, seed, rgb=True, variance=variance,
+                          progress=progress, should_stop=should_stop)
     finally:
         sampler.set_sample_count(count)
-
-
-def _passes(scenes, sensor, plan, spp, seed, variance, progress, should_stop):
-    total = None
-    means, counts, times = [], [], []
-    done = 0
-    for i, n in enumerate(plan):
-        if should_stop():
-            break
-        t = time.perf_counter()
-        arr = 0.0
-        for sc in scenes:
-            img = mi.render(sc, sensor=sensor, spp=n, seed=pass_seed(seed, i))
-            arr = arr + np.array(img, dtype=np.float64)[..., :3]
-        dr.sync_thread()
-        times.append(time.perf_counter() - t)
-        total = arr * n if total is None else total + arr * n
-        if variance:
-            means.append(arr)
-            counts.append(n)
-        done += n
-        if progress:
-            progress.update(done, i + 1, len(plan))
-    if progress and done < spp:
-        progress.finish_early()
-    if done == 0:
-        return None, None, 0, times
-    mean = total / done
-    var = None
-    if variance:
-        if len(means) > 1:
-            s2 = sum(c * np.square(m - mean) for m, c in zip(means, counts)) / (len(means) - 1)
-            var = (s2 / done).astype(np.float32)
-        else:
-            var = np.full(mean.shape, np.nan if done > 1 else 0.0, dtype=np.float32)
-    return mean.astype(np.float32), var, done, times
 
 
 def render(scene: mi.Scene, settings: ToneSettings, spp: int | None = None, seed: int = 0,

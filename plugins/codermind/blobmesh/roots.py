@@ -7,7 +7,7 @@ from typing import Callable
 
 import numpy as np
 
-from ._blobfield import BlobField
+from .field import BlobField
 
 
 def _illinois(g: Callable[[np.ndarray, np.ndarray], np.ndarray], lo: np.ndarray, hi: np.ndarray,

@@ -1,4 +1,4 @@
-"""The ``codermind`` command line: one sub-command per module in :mod:`codermind.commands`.
+"""The ``codermind`` command line: one sub-command per module in :mod:`codermind_cli.commands`.
 
 User errors (bad files, bad parameters) are printed as one line
 ``codermind: error: ...`` and exit with status 2, without a traceback.
@@ -9,11 +9,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
-import re
 import sys
 
+from codermind.errors import CodermindError, one_line
+
 from . import commands
-from .errors import CodermindError
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -25,8 +25,15 @@ def _command_modules():
             yield importlib.import_module(f"{commands.__name__}.{info.name}")
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors on one line, as every other error of the command line (exit status 2)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="codermind",
         description="The Codermind ray-tracing tutorial in Mitsuba 3, and its standalone port.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -35,28 +42,6 @@ def build_parser() -> argparse.ArgumentParser:
         module.add_arguments(p)
         p.set_defaults(run=module.run)
     return parser
-
-
-_PREFIX = re.compile(r"^\[[\w.]+:\d+\]\s*")
-_UNREFERENCED = re.compile(
-    r'While loading (?P<file>.+?) \(line (?P<line>\d+), col (?P<col>\d+)\): Found \d+ unreferenced '
-    r'propert(?:y|ies) in (?P<kind>\w+) plugin of type "(?P<type>[^"]+)":\s*-\s*\w+ "(?P<name>[^"]+)"')
-
-
-# A Python traceback that Mitsuba embeds when a Python plugin's constructor raises: keep
-# only the exception line that follows it (e.g. "ValueError: tutorial: 'power' ...").
-_TRACEBACK = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t]+.*\n)*")
-
-
-def one_line(message: str) -> str:
-    """Condense a (possibly multi-line, Mitsuba-prefixed) error message into one line."""
-    message = _TRACEBACK.sub("", str(message).strip())
-    m = _UNREFERENCED.search(message)
-    if m:
-        return (f'{m["file"]}:{m["line"]}:{m["col"]}: unknown parameter "{m["name"]}" '
-                f'for {m["kind"]} plugin "{m["type"]}"')
-    lines = [_PREFIX.sub("", line).strip() for line in message.splitlines()]
-    return "; ".join(line for line in lines if line)
 
 
 def main(argv: list[str] | None = None) -> int:

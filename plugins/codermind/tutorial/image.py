@@ -20,7 +20,7 @@ float64.
 
 The auto exposure is E = -ln(1 - Midpoint) / sqrt(mean L^2) over the luminances L of the
 16 x 16 probe rays (:func:`probe_positions`; E = -1 when that mean is 0, as the original);
-:mod:`codermind.tutorial_render` traces the probes through Mitsuba.
+:mod:`codermind.tutorial.render` traces the probes through Mitsuba.
 
 This module is written from the spec independently of the port's ``tonemap`` (the two are
 compared by the tests); it uses numpy only.
@@ -33,7 +33,7 @@ The settings travel in the converted XML as one comment block that Mitsuba ignor
 
 Keys: ``page`` (1, 2 or 4), ``width``, ``height`` (the tutorial image), ``lights`` (``sum``,
 default: one render per light, added, as the tutorial sums its lights at every hit;
-``sample``: Mitsuba's one light per hit; see :mod:`codermind.tutorial_render`), page 4 also
+``sample``: Mitsuba's one light per hit; see :mod:`codermind.tutorial.render`), page 4 also
 ``midpoint``, ``power``, ``black`` (the ``Tonemap.*`` values) and ``probes`` (the id of the
 sensor whose ``sample_ray`` gives the auto-exposure probe rays). Values contain no spaces.
 """
@@ -259,7 +259,7 @@ def tutorial_image(linear: np.ndarray, s: ToneSettings, exposure: float | None =
     else:
         if exposure is None:
             if s.page == 4:
-                raise ValueError("page 4 needs an exposure (auto exposure: see tutorial_render)")
+                raise ValueError("page 4 needs an exposure (auto exposure: see codermind.tutorial.render)")
             exposure = 1.0
         tonemapped = average_blocks(tone_curve(float(exposure) * linear, s))
     encoded = tonemapped if s.page == 1 else srgb_encode(tonemapped)

@@ -8,25 +8,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
+
+from ..args import positive_float, positive_int, seed, tutorial_scene
 
 NAME = "reference"
 HELP = "render a tutorial scene.txt with the standalone port (TGA, PNG, EXR)"
-
-
-def _positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def _seed(text: str) -> int:
-    value = int(text)
-    if not 0 <= value < 2 ** 63:
-        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {value}")
-    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -35,50 +22,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="output path without extension (default: the scene's name here)")
     p.add_argument("--mode", choices=("strict", "clean"), default="strict",
                    help="strict: the original programs (default); clean: quirks removed")
-    p.add_argument("--seed", type=_seed, default=0, help="random seed (page 4; default 0)")
-    p.add_argument("--complexity", type=_positive, metavar="N",
+    p.add_argument("--seed", type=seed, default=0, help="random seed (page 4; default 0)")
+    p.add_argument("--complexity", type=positive_int, metavar="N",
                    help="rays per sub-sample (page 4; default: the scene's Complexity)")
-    p.add_argument("--exposure", type=float, metavar="E",
+    p.add_argument("--exposure", type=positive_float, metavar="E",
                    help="fixed exposure instead of the page-4 auto exposure (page 2: default 1)")
-    p.add_argument("--workers", type=_positive, metavar="N",
+    p.add_argument("--workers", type=positive_int, metavar="N",
                    help="worker processes (default: one per core for large renders); "
                         "the image does not depend on it")
 
 
-class _Progress:
-    def __init__(self, label: str):
-        self.label, self.start, self.last = label, time.monotonic(), -1.0
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.monotonic()
-        if done < total and now - self.last < (0.2 if self.tty else 5.0):
-            return
-        self.last = now
-        elapsed = now - self.start
-        eta = elapsed * (total - done) / done if done else 0.0
-        bar = "#" * (30 * done // total)
-        line = f"{self.label}: [{bar:<30}] {100 * done // total:3d}% {elapsed:5.1f}s ETA {eta:5.1f}s"
-        print(("\r" if self.tty else "") + line, end="" if self.tty and done < total else "\n",
-              file=sys.stderr, flush=True)
-
-
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     import codermind_ref as ref
+    from codermind_harness.progress import PortProgress
 
     scene_path = Path(args.scene)
-    try:
-        scene = ref.parse_scene(scene_path)
-    except ref.SceneError as e:
-        raise CodermindError(str(e)) from None
+    scene = tutorial_scene(scene_path)
     for warning in scene.warnings:
         print(f"codermind: warning: {warning}", file=sys.stderr)
     base = Path(args.output) if args.output else Path.cwd() / scene_path.stem
     if base.suffix.lower() in (".tga", ".png", ".exr"):
         base = base.with_suffix("")
     result = ref.render(scene, args.mode, args.seed, args.complexity, exposure=args.exposure,
-                        workers=args.workers, progress=_Progress(scene_path.name))
+                        workers=args.workers, progress=PortProgress(scene_path.name))
     for warning in result.warnings[len(scene.warnings):]:     # found while rendering
         print(f"codermind: warning: {warning}", file=sys.stderr)
     try:

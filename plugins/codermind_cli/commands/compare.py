@@ -18,88 +18,53 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..args import define, fraction, positive_float, positive_int, rect, seed
+
 NAME = "compare"
 HELP = "compare the Mitsuba plugins with the port on tutorial scenes (z-test, FLIP, relMSE)"
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def _fraction(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {value}")
-    return value
-
-
-def _rect(text: str) -> tuple[int, int, int, int]:
-    try:
-        values = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 4:
-        raise argparse.ArgumentTypeError(f"expected x0,y0,x1,y1 (integers), got {text!r}")
-    return values
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenes", nargs="+", metavar="SCENE", help="tutorial scene .txt or converted .xml")
     p.add_argument("-o", "--output", metavar="DIR", default="compare",
                    help="output folder (default ./compare)")
-    p.add_argument("--spp", type=_positive, metavar="N",
+    p.add_argument("--spp", type=positive_int, metavar="N",
                    help="samples per sub-sample on both sides (port Complexity = Mitsuba spp); "
                         "default 1 for scenes without randomness, else the scene's Complexity, "
                         "at least 64 (FLIP needs the noise of both sides below its threshold)")
-    p.add_argument("--seed", type=int, default=0, help="seed of both sides (default 0)")
-    p.add_argument("--stride", type=_positive, default=1, metavar="K",
+    p.add_argument("--seed", type=seed, default=0, help="seed of both sides (default 0)")
+    p.add_argument("--stride", type=positive_int, default=1, metavar="K",
                    help="compare every K-th pixel in x and y (faster; default 1)")
-    p.add_argument("--rect", type=_rect, metavar="x0,y0,x1,y1",
+    p.add_argument("--rect", type=rect, metavar="x0,y0,x1,y1",
                    help="compare only these pixels (half-open, tutorial coordinates, y up)")
-    p.add_argument("--exposure", type=float, metavar="E",
+    p.add_argument("--exposure", type=positive_float, metavar="E",
                    help="exposure of both sides (default: page 4 the port's auto exposure for "
                         "the seed, page 2: 1)")
-    p.add_argument("--blob-max-error", type=float, metavar="E",
+    p.add_argument("--blob-max-error", type=positive_float, metavar="E",
                    help="blob tessellation error in world units (default: the converter's)")
     p.add_argument("--port-mode", choices=("clean", "strict"), default="clean",
                    help="port mode (default clean, which Mitsuba reproduces; strict shows the "
                         "quirks the test detects)")
-    p.add_argument("-D", "--define", metavar="NAME=VALUE", action="append", default=[],
+    p.add_argument("-D", "--define", metavar="NAME=VALUE", type=define, action="append", default=[],
                    help="XML <default> override on the Mitsuba side, e.g. -D max_depth=5")
-    p.add_argument("--min-pass-rate", type=_fraction, default=0.99, metavar="R",
+    p.add_argument("--min-pass-rate", type=fraction, default=0.99, metavar="R",
                    help="smallest z-test pass rate (default 0.99)")
-    p.add_argument("--max-flip", type=_fraction, default=0.01, metavar="F",
+    p.add_argument("--max-flip", type=fraction, default=0.01, metavar="F",
                    help="largest mean FLIP (default 0.01)")
     p.add_argument("--noise-floor", action="store_true",
                    help="also render the port with seed + 1 and report FLIP and the z-test of "
                         "the port against itself (noise alone), to tell noise from disagreement")
-    p.add_argument("--workers", type=_positive, metavar="N", help="port worker processes")
+    p.add_argument("--workers", type=positive_int, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
-    from .render import parse_defines
+    from codermind.errors import CodermindError
     from codermind_harness.compare import Options, Thresholds, format_table, run as compare
     from codermind_harness.sides import HarnessError
 
-    if not 0 <= args.seed < 2 ** 32:
-        raise CodermindError(f"--seed: must be in [0, 2^32), got {args.seed}")
-    for name in ("exposure", "blob_max_error"):
-        value = getattr(args, name)
-        if value is not None and not value > 0:
-            raise CodermindError(f"--{name.replace('_', '-')}: must be > 0, got {value}")
-    defines = parse_defines(args.define)
+    defines = dict(args.define)
     if "spp" in defines:
         raise CodermindError("-D spp=...: use --spp (it sets both sides)")
     opt = Options(spp=args.spp, seed=args.seed, rect=args.rect, stride=args.stride,

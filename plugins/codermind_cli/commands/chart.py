@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import CodermindError
+    from codermind.errors import CodermindError
     from codermind_harness import chart
     from codermind_harness.sides import HarnessError
     try:

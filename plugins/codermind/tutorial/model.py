@@ -232,7 +232,7 @@ def choose(scene, target: float = DEFAULT_TARGET, exposure: float | None = None,
            lights: str = "sum") -> Model:
     """The cheapest model within ``target`` levels of the full one (see the module doc).
     ``max_depth``, ``spp``, ``blob_max_error``: the user's overrides. ``lights``: how the
-    render adds the lights (:mod:`codermind.tutorial_render`): with ``sample`` (Mitsuba picks
+    render adds the lights (:mod:`codermind.tutorial.render`): with ``sample`` (Mitsuba picks
     one of N lights per hit) a deterministic scene needs N^2 samples of a jitter-free
     stratified sampler (each light picked equally often at every hit) to be exact."""
     if not target > 0:

@@ -22,10 +22,10 @@ uses this package's plugins and the built-in ``path`` integrator:
 * ``path`` with ``max_depth`` = path depth + 1 (11 for the tutorial's 10 segments) and no
   Russian roulette.
 
-The model (depth, samples, blob tessellation) is :func:`codermind.tutorial_model.choose`'s,
+The model (depth, samples, blob tessellation) is :func:`codermind.tutorial.model.choose`'s,
 baked in as ``<default>`` values that ``-D name=value`` overrides at render time. The
 tutorial's image settings go into a ``codermind-tutorial`` comment block
-(:mod:`codermind.tutorial_image`). Every element carries a comment naming the tutorial
+(:mod:`codermind.tutorial.image`). Every element carries a comment naming the tutorial
 section and line it came from; what cannot be reproduced exactly is listed at the top of the
 file (and returned as ``notes``).
 """
@@ -40,9 +40,9 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import CodermindError
-from .tutorial_image import ToneSettings, format_block, format_number
-from .tutorial_model import Model
+from ..errors import CodermindError
+from .image import ToneSettings, format_block, format_number
+from .model import Model
 
 #: Length of every segment in the tutorial (t starts at 2000).
 T_MAX = 2000.0
