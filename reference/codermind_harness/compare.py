@@ -114,7 +114,7 @@ def prepare(path: str | os.PathLike, opt: Options) -> Case:
     if opt.exposure is not None and scene.page == 1:
         raise HarnessError(f"{txt}: page 1 has no exposure")
     if opt.exposure_seeds < 2:
-        raise HarnessError(f"--exposure-seeds must be >= 2 (the test estimates each side's "
+        raise HarnessError(f"--exposure-seeds: must be >= 2 (the test estimates each side's "
                            f"spread), got {opt.exposure_seeds}")
     grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
     strip_free_rows(grid, scene.page)

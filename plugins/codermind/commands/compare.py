@@ -35,20 +35,6 @@ def _positive(text: str) -> int:
     return value
 
 
-def _at_least_two(text: str) -> int:
-    value = _positive(text)
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"must be >= 2, got {value}")
-    return value
-
-
-def _level(text: str) -> float:
-    value = _fraction(text)
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {value}")
-    return value
-
-
 def _fraction(text: str) -> float:
     try:
         value = float(text)
@@ -96,10 +82,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="smallest z-test pass rate (default 0.99)")
     p.add_argument("--max-flip", type=_fraction, default=0.01, metavar="F",
                    help="largest mean FLIP (default 0.01)")
-    p.add_argument("--exposure-seeds", type=_at_least_two, default=8, metavar="N",
+    p.add_argument("--exposure-seeds", type=int, default=8, metavar="N",
                    help="page 4: auto exposures per side for the exposure test, seeds SEED.."
                         "SEED+N-1 (default 8)")
-    p.add_argument("--exposure-alpha", type=_level, default=0.001, metavar="A",
+    p.add_argument("--exposure-alpha", type=float, default=0.001, metavar="A",
                    help="level of the exposure test (Welch's t, two-sided; default 0.001)")
     p.add_argument("--noise-floor", action="store_true",
                    help="also render the port with seed + 1 and report FLIP and the z-test of "
@@ -121,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if value is not None and not value > 0:
             raise CodermindError(f"--{name.replace('_', '-')}: must be > 0, got {value}")
+    if not 0 < args.exposure_alpha < 1:
+        raise CodermindError(f"--exposure-alpha: must be in (0, 1), got {args.exposure_alpha}")
     defines = parse_defines(args.define)
     if "spp" in defines:
         raise CodermindError("-D spp=...: use --spp (it sets both sides)")
