@@ -237,6 +237,9 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
                    progress: bool = True) -> SideImage:
     from codermind.render import Progress
     from codermind.tutorial_render import light_scenes, render_linear
+    from .cluster import current
+    if current() is not None:       # one task on a worker, which keeps the loaded scene
+        return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance)
     t0 = time.perf_counter()
     defines = dict(defines or {})
     scene, settings = load_mitsuba(xml, grid, defines)
@@ -259,9 +262,12 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
     import codermind_ref as ref
     t0 = time.perf_counter()
     from codermind.commands.reference import _Progress   # the port's own progress line
-    callback = _Progress(f"port {Path(scene.path).name}") if progress else None
+    from .cluster import current
+    cluster = current()             # its tiles as tasks, under the cluster's progress line
+    callback = _Progress(f"port {Path(scene.path).name}") if progress and not cluster else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
-                        stride=grid.stride, workers=workers, progress=callback)
+                        stride=grid.stride, workers=workers, progress=callback,
+                        tile_map=cluster.tile_map if cluster else None)
     seconds = time.perf_counter() - t0
     var = result.variance.astype(np.float64)
     if np.isnan(var).any():
