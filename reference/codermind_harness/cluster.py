@@ -40,6 +40,7 @@ import sys
 import tempfile
 import threading
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
@@ -147,6 +148,10 @@ def _variant(name: str | None) -> None:
         from codermind.variants import set_variant
         set_variant(name)
     import codermind  # noqa: F401  (registers the plugins)
+
+
+def _identity(x):
+    return x
 
 
 def _trace_tiles(job, tiles) -> list:
@@ -274,9 +279,14 @@ class Cluster:
         return list(self.results(self.submit_all(_call_on_worker, [(c,) for c in calls])))
 
     def tile_map(self, job, tiles: list, per_task: int = TILES_PER_TASK) -> Iterator:
-        """``codermind_ref.render``'s ``tile_map``: the job scattered once, groups of
-        ``per_task`` consecutive tiles per task, the tiles' results yielded in tile order."""
-        [shared] = self.client.scatter([job], broadcast=False, hash=False)
+        """``codermind_ref.render``'s ``tile_map``: the job sent once, groups of ``per_task``
+        consecutive tiles per task, the tiles' results yielded in tile order.
+
+        The job travels as the argument of a task that returns it, not by ``scatter``: data
+        scattered to a worker that dies is gone, a task's result is computed again."""
+        with warnings.catch_warnings():     # "Sending large graph": the job (cube faces)
+            warnings.simplefilter("ignore", UserWarning)
+            shared = self.client.submit(_identity, job, pure=False)
         groups = [tiles[i:i + per_task] for i in range(0, len(tiles), per_task)]
         try:
             for group in self.results(self.submit_all(_trace_tiles,
