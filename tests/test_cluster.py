@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import json
+import multiprocessing
 import os
 import signal
 import subprocess
@@ -60,6 +61,29 @@ def _same_image(a, b) -> None:
     assert np.array_equal(a.linear, b.linear)
     assert np.array_equal(a.variance, b.variance, equal_nan=True)
     assert a.exposure == b.exposure
+
+
+def _render_page1_top(queue, workers: int) -> None:
+    try:
+        import codermind_ref as ref
+        scene = ref.parse_scene(SCENES / "page1.txt")
+        queue.put(ref.render(scene, workers=workers).rgb8_tga.tobytes())
+    except Exception as e:      # noqa: BLE001  (reported to the test)
+        queue.put(f"{type(e).__name__}: {e}")
+
+
+def test_the_port_in_a_daemonic_process_renders_there_instead_of_forking_a_pool():
+    """A Dask worker process is daemonic and may not have children: the port's workers=2
+    (5 tiles here) must then run in the process itself, with the same bytes."""
+    import codermind_ref as ref
+    ctx = multiprocessing.get_context("fork")    # first test: no cluster threads forked yet
+    queue = ctx.Queue()
+    child = ctx.Process(target=_render_page1_top, args=(queue, 2), daemon=True)
+    child.start()
+    got = queue.get(timeout=120)
+    child.join(30)
+    scene = ref.parse_scene(SCENES / "page1.txt")
+    assert got == ref.render(scene, workers=1).rgb8_tga.tobytes()
 
 
 def test_a_run_without_the_option_does_not_import_distributed(tmp_path):

@@ -50,8 +50,6 @@ SCENES = ("page1", "page2", "page3", "page4", "garden")
 ZERO_FLOOR = 1e-10
 REF_SEED, SWEEP_SEED, PORT_SEED = 1000, 1, 0
 THRESHOLD = 1e-3
-#: Worker processes of a port point (1 on a cluster: one point per task, in the task's process).
-PORT_WORKERS = 2
 
 
 @dataclass(frozen=True)
@@ -242,7 +240,7 @@ def _port(scene, rect, complexity: int, exposure):
     import codermind_ref as ref
     t0 = time.perf_counter()
     r = ref.render(scene, "clean", PORT_SEED, complexity, exposure=exposure, rect=rect,
-                   workers=PORT_WORKERS)
+                   workers=2)
     return r.linear.astype(np.float64), time.perf_counter() - t0
 
 
@@ -465,8 +463,8 @@ def _xml_defaults(xml: Path) -> dict:
 
 
 def cluster_address() -> str | None:
-    """The ``--cluster`` the points ran on (None: this machine; port points then use
-    :data:`PORT_WORKERS` processes, on a cluster one)."""
+    """The ``--cluster`` the points ran on (None: this machine). On a cluster a port point
+    renders in its task's process (a Dask worker is daemonic: the port forks no pool there)."""
     from .cluster import current
     return current().address if current() else None
 

@@ -189,16 +189,8 @@ def _runner_on_worker(bundle: Bundle, width: int, height: int, page: int):
     return runner
 
 
-def _call_on_worker(fn: Callable):
-    """A chart point on a worker: the port renders in the task's own process (a Dask worker
-    cannot fork a pool; one point per task is the unit)."""
-    from . import chart
-    chart.PORT_WORKERS = 1
+def _call(fn: Callable):
     return fn()
-
-
-def _call(fn: Callable, *args):
-    return fn(*args)
 
 
 # -- the client ------------------------------------------------------------------------------
@@ -276,7 +268,7 @@ class Cluster:
 
     def run_calls(self, calls: list[Callable]) -> list:
         """Run zero-argument callables (chart points, closures pickled by value) as tasks."""
-        return list(self.results(self.submit_all(_call_on_worker, [(c,) for c in calls])))
+        return list(self.results(self.submit_all(_call, [(c,) for c in calls])))
 
     def tile_map(self, job, tiles: list, per_task: int = TILES_PER_TASK) -> Iterator:
         """``codermind_ref.render``'s ``tile_map``: the job sent once, groups of ``per_task``

@@ -235,8 +235,10 @@ def _trace_current(tile):
 
 
 def _run(job: _Job, tiles, workers: int):
-    # forked workers inherit the job (no pickling); without fork, one process does it all
-    if workers <= 1 or len(tiles) < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    # forked workers inherit the job (no pickling); without fork, or in a daemonic process
+    # (e.g. a cluster's worker), which may not have children, one process does it all
+    if (workers <= 1 or len(tiles) < 2 or multiprocessing.current_process().daemon
+            or "fork" not in multiprocessing.get_all_start_methods()):
         yield from map(job.trace, tiles)
         return
     global _CURRENT
