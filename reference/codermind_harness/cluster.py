@@ -49,10 +49,8 @@ import numpy as np
 
 from .sides import Grid, HarnessError, SideImage
 
-HELP = ("run the work on a Dask cluster: tcp://HOST:PORT (a running `dask scheduler`) or "
-        "local:N (N worker processes on this machine); default: this machine, as without it")
-#: Port tiles (of ``codermind_ref.driver.TILE_RAYS`` rays) per task: one tile costs ~0.1-0.2 s
-#: on page 4, about 10x a task's overhead (benchmarks/bench_cluster.py).
+#: Port tiles (of up to ``codermind_ref.driver.TILE_RAYS`` rays) per task: a page-4 tile
+#: already costs several times a task's overhead (benchmarks/bench_cluster.py, docs/cluster.md).
 TILES_PER_TASK = 2
 _LOCAL = re.compile(r"local:(\d+)")
 _REMOTE = re.compile(r"(tcp|tls|ucx)://[^\s/:]+:\d+")
