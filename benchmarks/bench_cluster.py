@@ -18,10 +18,12 @@ from __future__ import annotations
 import argparse
 import functools
 import os
+import pickle
 import statistics
 import time
 from pathlib import Path
 
+import distributed
 import numpy as np
 
 import codermind_ref as ref
@@ -75,6 +77,15 @@ def main() -> None:
             assert all(np.array_equal(base, im) for im in images.values()), "images differ"
         tiles = len(_Job(scene, None, None, 0, args.complexity, np.arange(scene.width),
                          np.arange(scene.height)).tiles())
+        captured = {}
+        ref.render(scene, "clean", 0, args.complexity,
+                   tile_map=lambda job, tiles: captured.update(job=job) or map(job.trace, tiles))
+        sends = []
+        for _ in range(3):          # the job's trip to a worker, once per render
+            t = time.perf_counter()
+            distributed.wait(two.client.submit(_noop, captured["job"], pure=False))
+            sends.append(time.perf_counter() - t)
+        job_mb = len(pickle.dumps(captured["job"])) / 2 ** 20
         trip = []
         for _ in range(20):
             t = time.perf_counter()
@@ -101,6 +112,9 @@ def main() -> None:
           f"{overhead * 1e3:.1f} ms")
     print(f"empty task: round trip {statistics.median(trip) * 1e3:.1f} ms (median of 20), "
           f"{throughput * 1e3:.2f} ms per task when 400 are in flight on 2 workers")
+    print(f"the job (scene, faces, world: {job_mb:.1f} MiB pickled) sent to a worker: "
+          f"{statistics.median(sends):.2f} s per render (median of 3), "
+          f"{statistics.median(sends) / tiles * 1e3:.1f} ms per tile of this render")
     pays = max(overhead, statistics.median(trip))
     print(f"smallest task that pays on 2 workers: t > o / (2 - 1) = {pays * 1e3:.1f} ms, about "
           f"{pays / per_tile * TILE_RAYS:,.0f} rays of this render "
