@@ -87,7 +87,7 @@ def test_the_port_in_a_daemonic_process_renders_there_instead_of_forking_a_pool(
 
 
 def test_a_run_without_the_option_does_not_import_distributed(tmp_path):
-    code = ("import sys; from codermind.cli import main; "
+    code = ("import sys; from codermind_cli.main import main; "
             f"rc = main(['reference', {str(SCENES / 'page1.txt')!r}, '-o', "
             f"{str(tmp_path / 'p1')!r}]); "
             "import codermind_harness.cluster; "

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from codermind.tutorial_image import tga_bytes
+from codermind.tutorial.image import tga_bytes
 from conftest import ROOT, run_cli
 
 SCENES = ROOT / "scenes"
@@ -94,8 +94,9 @@ def test_python_api_variance_from_passes(llvm, tmp_path):
     """Randomness from the lens only (page 3 with Dispersion 20): the variance of the mean
     from 16 one-sample passes is 0 where the lens does not matter (the sky) and > 0 on the
     blurred objects; on average it matches the spread between independent renders."""
-    from codermind import tutorial_render as tr
-    from codermind.tutorial_convert import convert_scene, parse
+    from codermind.tutorial import render as tr
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     source = tmp_path / "page3.txt"
     source.write_text((SCENES / "page3.txt").read_text().replace("Dispersion = 0.0",
                                                                  "Dispersion = 20.0"))

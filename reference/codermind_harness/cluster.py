@@ -159,7 +159,7 @@ def _trace_tiles(job, tiles) -> list:
 def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, defines: dict,
                   variance: bool, variant: str | None) -> SideImage:
     """``sides.render_mitsuba`` on a worker, the loaded scene kept for the next task."""
-    from codermind.tutorial_render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, render_linear
     from .sides import encode_mitsuba, load_mitsuba
     t0 = time.perf_counter()
     _variant(variant)
@@ -313,8 +313,8 @@ def _runner_class():
 
 
 def _bar(label: str):
-    from codermind.commands.reference import _Progress   # the port's own progress line
-    return _Progress(label)
+    from .progress import PortProgress      # the port's own progress line
+    return PortProgress(label)
 
 
 # -- the session's cluster -------------------------------------------------------------------

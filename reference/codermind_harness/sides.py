@@ -1,7 +1,7 @@
 """One tutorial scene rendered on both sides, at matched sample positions and counts.
 
 * **Mitsuba**: the converted XML (``codermind convert``, full model: ``path`` with
-  ``max_depth`` 11) rendered with ``codermind.tutorial_render``: lights summed as the tutorial
+  ``max_depth`` 11) rendered with ``codermind.tutorial.render``: lights summed as the tutorial
   does, ``spp`` samples per film pixel (= per tutorial sub-sample), the variance of each
   sub-sample's mean from >= 16 pass means.
 * **Port**: ``codermind_ref.render`` in clean mode (or any mode) with Complexity = ``spp``.
@@ -13,7 +13,7 @@ coordinates, y up) and ``stride`` (every stride-th pixel). The port renders only
 pixels; Mitsuba renders the rectangle (a film crop) and the grid is taken from it.
 
 A scene without randomness (no lens blur, every roulette event certain:
-``codermind.tutorial_model``) is rendered with one sample on both sides; its variance is 0
+``codermind.tutorial.model``) is rendered with one sample on both sides; its variance is 0
 by construction on both (the port reports NaN for one ray on page 4, which is then 0).
 """
 
@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 #: The converted XML's header names its source file: "Converted by `codermind convert`
-#: from NAME (scene version ..." (codermind.tutorial_xml).
+#: from NAME (scene version ..." (codermind.tutorial.xml).
 _SOURCE = re.compile(r"Converted by `codermind convert` from (?P<name>.+?) \(scene version")
 _FILM = re.compile(r'<film\b[^>]*\btype="hdrfilm"[^>]*>')
 #: Samples per sub-sample of a random scene when its Complexity is lower. FLIP compares two
@@ -138,7 +138,7 @@ def parse(txt: Path):
 
 def is_random(scene) -> bool:
     """Whether a sub-sample's rays differ (lens blur or a random roulette event)."""
-    from codermind.tutorial_model import choose
+    from codermind.tutorial.model import choose
     return choose(scene, exposure=1.0, max_depth=11, spp=1).stochastic
 
 
@@ -164,7 +164,7 @@ def convert_xml(txt: Path, scene, out_dir: Path, blob_max_error: float | None = 
                 name: str | None = None) -> Path:
     """The converter's XML of ``scene`` with the full model (``max_depth`` 11), written to
     ``out_dir`` (cube-map faces named relative to it)."""
-    from codermind.tutorial_convert import convert_scene
+    from codermind.tutorial.convert import convert_scene
     from codermind.imageio import atomic_path
     xml = out_dir / (name or f"{txt.stem}.xml")
     conversion = convert_scene(scene, xml, max_depth=11, spp=1, blob_max_error=blob_max_error,
@@ -194,7 +194,7 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict):
     import mitsuba as mi
     from codermind.errors import CodermindError
     from codermind.scene import attach_emitters, load_scene
-    from codermind.tutorial_render import read_settings
+    from codermind.tutorial.render import read_settings
     settings = read_settings(xml)
     if settings is None:
         raise HarnessError(f"{xml}: not a converted tutorial scene (no codermind-tutorial "
@@ -224,8 +224,8 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict):
 
 
 def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.ndarray:
-    """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial_image)."""
-    from codermind.tutorial_image import average_blocks, srgb_encode, tone_curve
+    """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial.image)."""
+    from codermind.tutorial.image import average_blocks, srgb_encode, tone_curve
     if settings.page == 1:
         return np.clip(linear, 0.0, 1.0)
     e = 1.0 if exposure is None else float(exposure)
@@ -236,7 +236,7 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
                    defines: dict | None = None, variance: bool = True,
                    progress: bool = True) -> SideImage:
     from codermind.render import Progress
-    from codermind.tutorial_render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, render_linear
     from .cluster import current
     if current() is not None:       # one task on a worker, which keeps the loaded scene
         return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance)
@@ -261,10 +261,10 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                 progress: bool = True) -> SideImage:
     import codermind_ref as ref
     t0 = time.perf_counter()
-    from codermind.commands.reference import _Progress   # the port's own progress line
+    from .progress import PortProgress
     from .cluster import current
     cluster = current()             # its tiles as tasks, under the cluster's progress line
-    callback = _Progress(f"port {Path(scene.path).name}") if progress and not cluster else None
+    callback = PortProgress(f"port {Path(scene.path).name}") if progress and not cluster else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
                         stride=grid.stride, workers=workers, progress=callback,
                         tile_map=cluster.tile_map if cluster else None)

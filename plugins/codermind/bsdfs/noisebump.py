@@ -4,8 +4,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..textures import _noise
-from ..params import flag
-from ._params import read_float
+from ..params import flag, read_float
 
 
 class NoiseBumpBSDF(mi.BSDF):

@@ -3,8 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..params import FLOAT32_MIN_NORMAL
-from ._params import read_float, read_texture
+from ..params import FLOAT32_MIN_NORMAL, read_float, read_texture
 
 PAGES = (1, 2, 4)
 

@@ -5,9 +5,9 @@ import math
 import drjit as dr
 import mitsuba as mi
 
-from codermind.params import FLOAT32_MAX, number
-from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_clip,
-                                    read_pixel_offset, to_world_matrix, x_fov)
+from codermind.params import (FLOAT32_MAX, number, read_clip, read_pixel_offset, to_world_matrix,
+                              x_fov)
+from codermind.sensors._film import FilmMap, check_rigid, origin_of
 
 
 class ConicCamera(mi.Sensor):

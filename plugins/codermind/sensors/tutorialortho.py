@@ -3,7 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from codermind.sensors._film import FilmMap, origin_of, read_clip, read_pixel_offset
+from codermind.params import read_clip, read_pixel_offset
+from codermind.sensors._film import FilmMap, origin_of
 
 
 class TutorialOrthoCamera(mi.Sensor):

@@ -7,7 +7,8 @@ import time
 import mitsuba as mi
 import numpy as np
 
-from ._blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh import BlobMeshError, build_blob_mesh
+from ..params import loose_number
 
 _CENTER = re.compile(r"center(\d+)$")
 
@@ -83,7 +84,7 @@ def blob(props: mi.Properties) -> mi.Mesh:
             </shape>
     """
     centers = _centers(props)
-    radius = _float(props, "radius", None)
+    radius = loose_number(props, "blob", "radius")
     field = str(props.get("field", "tutorial"))
     normals = str(props.get("normals", "exact"))
     to_world = props.get("to_world", mi.ScalarTransform4f())
@@ -97,7 +98,7 @@ def blob(props: mi.Properties) -> mi.Mesh:
     scale = float(sv[0])  # largest stretch: world error <= scale * object-space error
     if radius is None:
         raise ValueError("blob: 'radius' is required")
-    max_error = _float(props, "max_error", None)
+    max_error = loose_number(props, "blob", "max_error")
     if max_error is None:
         max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
     t0 = time.perf_counter()
@@ -162,15 +163,6 @@ def _centers(props: mi.Properties) -> np.ndarray:
         except (TypeError, IndexError):
             raise ValueError(f"blob: '{found[i]}' must be a point") from None
     return np.array(out)
-
-
-def _float(props: mi.Properties, name: str, default):
-    if name not in props:
-        return default
-    try:
-        return float(props.get(name))
-    except (TypeError, ValueError):
-        raise ValueError(f"blob: '{name}' must be a number") from None
 
 
 mi.register_shape("blob", blob)

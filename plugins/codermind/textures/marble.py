@@ -3,7 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ._solid import TurbulenceBase, positive_float
+from ..params import positive_float
+from ._solid import TurbulenceBase
 
 
 #: The stripe phase is clamped to +-2^23: float32 has no fraction bits beyond, and Dr.Jit's

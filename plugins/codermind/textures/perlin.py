@@ -3,7 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import mitsuba as mi
 
 from . import _noise
-from ._solid import SolidTexture, positive_float
+from ..params import positive_float
+from ._solid import SolidTexture
 
 
 class PerlinTexture(SolidTexture):
