@@ -55,6 +55,14 @@ def fraction(text: str) -> float:
     return value
 
 
+def level(text: str) -> float:
+    """A test's significance level, in (0, 1)."""
+    value = _number(text)
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1), got {text}")
+    return value
+
+
 def seed(text: str) -> int:
     """A random seed in [0, 2^32) (see the module doc)."""
     value = _integer(text)

@@ -157,9 +157,9 @@ def _trace_tiles(job, tiles) -> list:
 
 
 def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, defines: dict,
-                  variance: bool, variant: str | None) -> SideImage:
+                  variance: bool, variant: str | None, exposure_seeds=()) -> SideImage:
     """``sides.render_mitsuba`` on a worker, the loaded scene kept for the next task."""
-    from codermind.tutorial.render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     from .sides import encode_mitsuba, load_mitsuba
     t0 = time.perf_counter()
     _variant(variant)
@@ -171,10 +171,14 @@ def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, def
     scenes, settings = _WORKER["scenes"][key]
     t1 = time.perf_counter()
     mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance)
+    t2 = time.perf_counter()
+    exposures = None
+    if settings.page == 4 and len(exposure_seeds):
+        exposures = [probe_exposure(scenes, settings, int(s)) for s in exposure_seeds]
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, time.perf_counter() - t0, t1 - t0)
+                     done, t2 - t0, t1 - t0, exposures, time.perf_counter() - t2)
 
 
 def _runner_on_worker(bundle: Bundle, width: int, height: int, page: int):
@@ -287,12 +291,13 @@ class Cluster:
 
     def render_mitsuba(self, xml: Path, grid: Grid, spp: int, seed: int, exposure,
                        defines: dict | None = None, variance: bool = True,
-                       variant: str | None = None) -> SideImage:
+                       variant: str | None = None, exposure_seeds=()) -> SideImage:
         if variant is None:
             import mitsuba as mi
             variant = mi.variant()          # the client's, set by the command
         [f] = self.submit_all(_mitsuba_task, [(self.bundle(xml), grid, spp, seed, exposure,
-                                               dict(defines or {}), variance, variant)])
+                                               dict(defines or {}), variance, variant,
+                                               tuple(exposure_seeds))])
         return next(self.results([f]))
 
     def bundle(self, xml: Path) -> Bundle:

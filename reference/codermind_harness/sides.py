@@ -12,6 +12,11 @@ page 2: 1). A :class:`Grid` picks part of the image: ``rect`` (half-open, tutori
 coordinates, y up) and ``stride`` (every stride-th pixel). The port renders only those
 pixels; Mitsuba renders the rectangle (a film crop) and the grid is taken from it.
 
+Page 4 also yields each side's auto exposure for a list of seeds (:func:`port_exposures`;
+``render_mitsuba(..., exposure_seeds=...)``): the port's from its probe grid, Mitsuba's from
+the converted XML's ``probes`` sensor traced with its integrator
+(``codermind.tutorial.render.probe_exposure``), lights summed as for the image.
+
 A scene without randomness (no lens blur, every roulette event certain:
 ``codermind.tutorial.model``) is rendered with one sample on both sides; its variance is 0
 by construction on both (the port reports NaN for one ray on page 4, which is then 0).
@@ -103,6 +108,8 @@ class SideImage:
     spp: int
     seconds: float           #: rendering (and, for Mitsuba, loading) wall time
     load_seconds: float = 0.0
+    probe_exposures: list[float] | None = None   #: auto exposure per seed asked for
+    probe_seconds: float = 0.0
 
 
 # -- the scene and its twin ------------------------------------------------------------------
@@ -158,6 +165,13 @@ def port_exposure(scene, seed: int, mode: str = "clean") -> float | None:
     if scene.page == 2:
         return 1.0
     return ref.render(scene, mode, seed, 1, rect=(0, 0, 1, 1), workers=1).exposure
+
+
+def port_exposures(scene, seeds, mode: str = "clean") -> list[float] | None:
+    """:func:`port_exposure` for each seed (page 4; None on other pages)."""
+    if scene.page != 4:
+        return None
+    return [port_exposure(scene, int(s), mode) for s in seeds]
 
 
 def convert_xml(txt: Path, scene, out_dir: Path, blob_max_error: float | None = None,
@@ -234,12 +248,15 @@ def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.n
 
 def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
                    defines: dict | None = None, variance: bool = True,
-                   progress: bool = True) -> SideImage:
+                   progress: bool = True, exposure_seeds=()) -> SideImage:
+    """The grid rendered from ``xml``; with ``exposure_seeds`` (page 4) also the auto
+    exposure of the XML's probes for each of those seeds."""
     from codermind.render import Progress
-    from codermind.tutorial.render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     from .cluster import current
     if current() is not None:       # one task on a worker, which keeps the loaded scene
-        return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance)
+        return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance,
+                                        exposure_seeds=exposure_seeds)
     t0 = time.perf_counter()
     defines = dict(defines or {})
     scene, settings = load_mitsuba(xml, grid, defines)
@@ -247,11 +264,15 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     scenes = light_scenes(scene) if settings.lights == "sum" else scene
     bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
     mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance, progress=bar)
+    t2 = time.perf_counter()
+    exposures = None
+    if settings.page == 4 and len(exposure_seeds):
+        exposures = [probe_exposure(scenes, settings, int(s)) for s in exposure_seeds]
     seconds = time.perf_counter() - t0
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, seconds, t1 - t0)
+                     done, t2 - t0, t1 - t0, exposures, seconds - (t2 - t0))
 
 
 # -- the port --------------------------------------------------------------------------------

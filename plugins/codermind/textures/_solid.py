@@ -91,9 +91,11 @@ class TurbulenceBase(SolidTexture):
         super().__init__(props, mixes_colors=True)
         self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
         self.octaves = octave_count(props, self.plugin)
+        self.gradient = _noise.read_gradient(props, self.plugin)
 
     def turbulence(self, p: mi.Point3f) -> mi.Float:
-        return _noise.turbulence(p, self.frequency, self.octaves)
+        return _noise.turbulence(p, self.frequency, self.octaves, self.gradient)
 
     def describe(self) -> str:
-        return f"frequency = {self.frequency},\n  octaves = {self.octaves}"
+        return (f"frequency = {self.frequency},\n  octaves = {self.octaves},\n"
+                f"  gradient = {self.gradient}")

@@ -43,6 +43,12 @@ class MarbleTexture(TurbulenceBase):
        - |float|
        - Frequency :math:`s` of the stripes along :math:`x + y` (Default: 0.05)
 
+     * - gradient
+       - |string|
+       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+         ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
+         (Default: ``tutorial``)
+
      * - to_world
        - |transform|
        - Placement: the texture is evaluated at

@@ -122,8 +122,9 @@ def probe_radiance(scene: mi.Scene | list[mi.Scene], settings: ToneSettings, see
                                     mi.Point2f(0.0, 0.0))
     integrator = integrator or scene.integrator()
     colour, _, _ = integrator.sample(scene, sampler, mi.RayDifferential3f(ray))
+    # a Color3f of n lanes converts to a (3, n) array: transpose, do not reshape
     out = np.array(colour * weight, dtype=np.float64)
-    return out.reshape(n, 3)
+    return out.T.reshape(n, 3)
 
 
 def probe_exposure(scene: mi.Scene | list[mi.Scene], settings: ToneSettings, seed: int = 0,

@@ -3,10 +3,12 @@
 positions and sample counts, and compare them: a two-sample z-test per sub-sample and channel
 of the linear radiance (Sidak-corrected alpha 0.01; pixels without noise on either side must
 agree within rtol 1e-3 + atol 1e-4), mean FLIP on the displayed images at the same exposure,
-relative MSE. Writes OUT/compare.json, OUT/compare.txt (the table, also printed) and
+relative MSE. On page 4 the two sides' own auto exposures (each side's probe grid, over 8
+seeds by default) are compared by Welch's t-test (alpha 0.001), whatever exposure the images
+use. Writes OUT/compare.json, OUT/compare.txt (the tables, also printed) and
 OUT/SCENE.compare.png (images, FLIP map, |z| map; SCENE is the file's stem, prefixed with its
-folder where two scenes share it). Exit status 0 when every scene passes (pass rate >= 0.99
-and mean FLIP <= 0.01 by default), 1 when one fails, 2 on bad input.
+folder where two scenes share it). Exit status 0 when every scene passes (pass rate >= 0.99,
+mean FLIP <= 0.01 and the exposure test by default), 1 when one fails, 2 on bad input.
 
 SCENE is a tutorial scene file (.txt: converted with the full model into
 OUT/SCENE.mitsuba.xml) or a converted
@@ -18,10 +20,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..args import define, fraction, positive_float, positive_int, rect, seed
+from ..args import define, fraction, level, positive_float, positive_int, rect, seed
 
 NAME = "compare"
-HELP = "compare the Mitsuba plugins with the port on tutorial scenes (z-test, FLIP, relMSE)"
+HELP = ("compare the Mitsuba plugins with the port on tutorial scenes (z-test, FLIP, relMSE, "
+        "auto exposure)")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,6 +54,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="smallest z-test pass rate (default 0.99)")
     p.add_argument("--max-flip", type=fraction, default=0.01, metavar="F",
                    help="largest mean FLIP (default 0.01)")
+    p.add_argument("--exposure-seeds", type=positive_int, default=8, metavar="N",
+                   help="page 4: auto exposures per side for the exposure test, seeds SEED.."
+                        "SEED+N-1 (default 8)")
+    p.add_argument("--exposure-alpha", type=level, default=0.001, metavar="A",
+                   help="level of the exposure test (Welch's t, two-sided; default 0.001)")
     p.add_argument("--noise-floor", action="store_true",
                    help="also render the port with seed + 1 and report FLIP and the z-test of "
                         "the port against itself (noise alone), to tell noise from disagreement")
@@ -74,9 +82,10 @@ def run(args: argparse.Namespace) -> int:
     opt = Options(spp=args.spp, seed=args.seed, rect=args.rect, stride=args.stride,
                   exposure=args.exposure, blob_max_error=args.blob_max_error,
                   port_mode=args.port_mode, out_dir=Path(args.output), defines=defines,
-                  thresholds=Thresholds(args.min_pass_rate, args.max_flip),
+                  thresholds=Thresholds(args.min_pass_rate, args.max_flip,
+                                        exposure_alpha=args.exposure_alpha),
                   progress=not args.quiet, workers=args.workers,
-                  noise_floor=args.noise_floor)
+                  noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds)
     try:
         with open_cluster(args.cluster, progress=not args.quiet):
             records, status = compare(args.scenes, opt, args.variant)
