@@ -122,13 +122,17 @@ class Job:
     tris: int | None = None
 
 
-def _interleave(jobs: list[Job], cfg: Config, label: str) -> None:
-    """Run every job once, then the cheap ones again, round-robin, rotating the order."""
+def _interleave(jobs: list[Job], cfg: Config, label: str, remote: bool = True) -> None:
+    """Run every job once, then the cheap ones again, round-robin, rotating the order. On a
+    cluster (``remote``: the jobs pickle) each round's jobs are tasks, one point each."""
+    from .cluster import current
+    cluster = current() if remote else None
     for rnd in range(cfg.repeats):
         todo = [j for j in jobs if rnd == 0 or j.runs[0] < cfg.cheap_s]
         todo = todo[rnd % max(len(todo), 1):] + todo[:rnd % max(len(todo), 1)]
-        for k, job in enumerate(todo):
-            lin, secs, load, tris = job.run()
+        outs = cluster.run_calls([j.run for j in todo]) if cluster else (j.run() for j in todo)
+        for k, (job, out) in enumerate(zip(todo, outs)):
+            lin, secs, load, tris = out
             job.runs.append(secs)
             job.load, job.tris = load, tris
             if job.linear is None:
@@ -248,7 +252,7 @@ def chart_garden(cfg: Config) -> dict:
             return lin.astype(np.float64), load + time.perf_counter() - t, load, None
         return go
     jobs = [Job("mitsuba spp", "spp", s, s, run(s)) for s in cfg.spp]
-    _interleave(jobs, cfg, "garden")
+    _interleave(jobs, cfg, "garden", remote=False)     # its loaded scene does not pickle
     enc = lambda x: np.clip(srgb_encode(np.clip(x, 0.0, 1.0)), 0.0, 1.0)   # noqa: E731
     points = []
     for j in jobs:
@@ -322,6 +326,13 @@ def _xml_defaults(xml: Path) -> dict:
     return out
 
 
+def cluster_address() -> str | None:
+    """The ``--cluster`` the points ran on (None: this machine). On a cluster a port point
+    renders in its task's process (a Dask worker is daemonic: the port forks no pool there)."""
+    from .cluster import current
+    return current().address if current() else None
+
+
 def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tuple[list, str]:
     """Chart ``only`` (default: every bundled scene), write the outputs; returns (paths,
     table)."""
@@ -343,6 +354,6 @@ def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tupl
     meta = {"config": cfg.name, "seconds": time.perf_counter() - t0,
             "load_average_before": list(before), "load_average_after": list(after),
             "load_text": chart_report.load_text(before, after), "cpus": os.cpu_count(),
-            "threshold_rel_mse": THRESHOLD}
+            "threshold_rel_mse": THRESHOLD, "cluster": cluster_address()}
     paths = chart_report.write(Path(outdir), results, rows, slopes, meta)
     return paths, chart_report.table(results)

@@ -27,6 +27,7 @@ import json
 import math
 import os
 import sys
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -248,6 +249,16 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from codermind.imageio import atomic_path
+    with _PYPLOT:       # pyplot is not thread-safe (scenes compared in threads on a cluster)
+        _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z,
+                 port_label, title)
+
+
+_PYPLOT = threading.Lock()
+
+
+def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, port_label,
+             title) -> None:
     h, w = mits.shape[:2]
     panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
     fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
@@ -350,7 +361,14 @@ def run(scenes: list[str], opt: Options, variant: str | None = None) -> tuple[li
     import codermind  # noqa: F401  (registers the plugins)
     t0 = time.perf_counter()
     cases = [prepare(s, opt) for s in scenes]      # bad input stops before any rendering
-    records = [compare_scene(c, opt, label) for c, label in zip(cases, labels(scenes))]
+    jobs = list(zip(cases, labels(scenes)))
+    from .cluster import current
+    if current() is None or len(jobs) < 2:
+        records = [compare_scene(c, opt, label) for c, label in jobs]
+    else:           # every scene's tasks in flight together on the cluster
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(min(len(jobs), 8)) as pool:
+            records = list(pool.map(lambda job: compare_scene(job[0], opt, job[1]), jobs))
     out = Path(opt.out_dir)
     table = format_table(records)
     write_json(out / "compare.json", {"options": _options_json(opt), "scenes": records,

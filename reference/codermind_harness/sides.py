@@ -253,6 +253,10 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     exposure of the XML's probes for each of those seeds."""
     from codermind.render import Progress
     from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
+    from .cluster import current
+    if current() is not None:       # one task on a worker, which keeps the loaded scene
+        return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance,
+                                        exposure_seeds=exposure_seeds)
     t0 = time.perf_counter()
     defines = dict(defines or {})
     scene, settings = load_mitsuba(xml, grid, defines)
@@ -279,9 +283,12 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
     import codermind_ref as ref
     t0 = time.perf_counter()
     from .progress import PortProgress
-    callback = PortProgress(f"port {Path(scene.path).name}") if progress else None
+    from .cluster import current
+    cluster = current()             # its tiles as tasks, under the cluster's progress line
+    callback = PortProgress(f"port {Path(scene.path).name}") if progress and not cluster else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
-                        stride=grid.stride, workers=workers, progress=callback)
+                        stride=grid.stride, workers=workers, progress=callback,
+                        tile_map=cluster.tile_map if cluster else None)
     seconds = time.perf_counter() - t0
     var = result.variance.astype(np.float64)
     if np.isnan(var).any():

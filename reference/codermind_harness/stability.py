@@ -11,6 +11,7 @@ failed check, the others still run); :func:`write_report` writes ``stability.md`
 
 from __future__ import annotations
 
+import functools
 import importlib
 import json
 import math
@@ -107,32 +108,41 @@ def first_crossing(xs, ys, limit: float) -> float | None:
 def run(names: list[str] | None = None, quick: bool = False,
         progress: Callable[[str], None] | None = None) -> list[SweepResult]:
     """Run the named sweeps (default: all) in registry order."""
-    from codermind.errors import CodermindError
     names = list(SWEEPS) if not names else [n for n in SWEEPS if n in names]
+    from .cluster import current
+    if current() is not None:      # one sweep per task, under the cluster's progress line
+        return current().map(functools.partial(run_one, quick=quick), names)
     results = []
     for i, name in enumerate(names, start=1):
-        module, function, description = SWEEPS[name]
         if progress:
-            progress(f"[{i}/{len(names)}] {name}: {description} ...")
-        t0 = time.perf_counter()
-        try:
-            sweep = getattr(importlib.import_module(f"codermind_harness.{module}"), function)
-            result = sweep(quick)
-        except CodermindError:  # the environment (e.g. no usable LLVM), not the method
-            raise
-        except Exception as e:  # a crash is a failed never-happen check, not the end of the run
-            result = SweepResult(name, description, "-", "-", "crashed", None)
-            tb = traceback.format_exception(type(e), e, e.__traceback__)
-            result.check("the sweep runs without an exception", False,
-                         f"{type(e).__name__}: {e}")
-            result.notes.append("".join(tb[-3:]).strip())
-        result.seconds = time.perf_counter() - t0
+            progress(f"[{i}/{len(names)}] {name}: {SWEEPS[name][2]} ...")
+        result = run_one(name, quick)
         if progress:
             state = "ok" if result.passed else "FAILED: " + "; ".join(
                 c.what for c in result.checks if not c.passed)
             progress(f"[{i}/{len(names)}] {name}: {result.seconds:.1f} s, {state}")
         results.append(result)
     return results
+
+
+def run_one(name: str, quick: bool = False) -> SweepResult:
+    """One sweep; a crash becomes a failed never-happen check."""
+    from codermind.errors import CodermindError
+    module, function, description = SWEEPS[name]
+    t0 = time.perf_counter()
+    try:
+        sweep = getattr(importlib.import_module(f"codermind_harness.{module}"), function)
+        result = sweep(quick)
+    except CodermindError:  # the environment (e.g. no usable LLVM), not the method
+        raise
+    except Exception as e:  # a crash is a failed never-happen check, not the end of the run
+        result = SweepResult(name, description, "-", "-", "crashed", None)
+        tb = traceback.format_exception(type(e), e, e.__traceback__)
+        result.check("the sweep runs without an exception", False,
+                     f"{type(e).__name__}: {e}")
+        result.notes.append("".join(tb[-3:]).strip())
+    result.seconds = time.perf_counter() - t0
+    return result
 
 
 # -- report --------------------------------------------------------------------------------

@@ -4,7 +4,8 @@
 Work is split into tiles of image rows (and, at high Complexity, of repeats) whose layout
 depends only on the image, so results are identical for any worker count; tiles run in
 forked worker processes when ``workers > 1`` (by default for renders of more than 200 000
-rays, one per available core, at most 8).
+rays, one per available core, at most 8), or wherever a caller's ``tile_map`` sends them: a
+tile's result depends only on the job and the tile, and the sums are taken in tile order.
 """
 
 from __future__ import annotations
@@ -73,7 +74,8 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
            complexity: int | None = None, *, exposure: float | None = None,
            rect: tuple[int, int, int, int] | None = None, stride: int = 1,
            workers: int | None = None,
-           progress: Callable[[int, int], None] | None = None) -> RenderResult:
+           progress: Callable[[int, int], None] | None = None,
+           tile_map: Callable | None = None) -> RenderResult:
     """Render ``scene`` as its page's program does.
 
     mode: "strict" (every quirk), "clean" (the quirks of :mod:`codermind_ref.quirks` removed)
@@ -85,7 +87,9 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     pixel values equal the full frame's. workers: processes (default: one per available core,
     at most 8, for renders of more than 200 000 rays; the result does not depend on it).
     progress(done, total) is called as tiles finish. Pages 1 and 2 ignore complexity, page 1
-    also exposure.
+    also exposure. tile_map(job, tiles): runs ``job.trace(tile)`` for every tile elsewhere (the
+    job pickles; e.g. on other machines) and yields the results in tile order; it replaces the
+    worker processes (``workers`` is then ignored) and the image does not depend on it.
     """
     t0 = time.perf_counter()
     quirks = resolve(mode)
@@ -115,7 +119,8 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     sums = np.zeros((ys.size, xs.size) + job.sample_shape + (3,))
     squares = np.zeros_like(sums) if c > 1 else None
     n_workers = workers or (min(8, len(os.sched_getaffinity(0))) if job.rays > 200_000 else 1)
-    for done, (tile, (s, q)) in enumerate(zip(tiles, _run(job, tiles, n_workers)), start=1):
+    results = tile_map(job, tiles) if tile_map else _run(job, tiles, n_workers)
+    for done, (tile, (s, q)) in enumerate(zip(tiles, results), start=1):
         rows = slice(tile[0], tile[1])
         sums[rows] += s
         if squares is not None:
@@ -177,7 +182,7 @@ def _exposure_warnings(scene: Scene, lum: np.ndarray, e: float) -> list[str]:
 
 
 class _Job:
-    """Everything a tile needs (inherited by forked workers)."""
+    """Everything a tile needs (inherited by forked workers, pickled for a ``tile_map``)."""
 
     def __init__(self, scene, world, quirks, seed, complexity, xs, ys):
         self.scene, self.world, self.quirks, self.seed = scene, world, quirks, seed
@@ -230,8 +235,10 @@ def _trace_current(tile):
 
 
 def _run(job: _Job, tiles, workers: int):
-    # forked workers inherit the job (no pickling); without fork, one process does it all
-    if workers <= 1 or len(tiles) < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    # forked workers inherit the job (no pickling); without fork, or in a daemonic process
+    # (e.g. a cluster's worker), which may not have children, one process does it all
+    if (workers <= 1 or len(tiles) < 2 or multiprocessing.current_process().daemon
+            or "fork" not in multiprocessing.get_all_start_methods()):
         yield from map(job.trace, tiles)
         return
     global _CURRENT

@@ -24,15 +24,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="chart only these scenes: " + ", ".join(SCENES))
     p.add_argument("--no-cost", action="store_true",
                    help="skip the cost-scaling experiments")
+    p.add_argument("--cluster", metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
+                        "(N worker processes here); default: this machine; one point per task, the "
+                        "cost-scaling experiments stay here")
 
 
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
     from codermind_harness import chart
+    from codermind_harness.cluster import open_cluster
     from codermind_harness.sides import HarnessError
     try:
-        paths, table = chart.run(Path(args.output), args.only, quick=args.quick,
-                                 cost=not args.no_cost)
+        with open_cluster(args.cluster):
+            paths, table = chart.run(Path(args.output), args.only, quick=args.quick,
+                                     cost=not args.no_cost)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
     except OSError as e:

@@ -65,10 +65,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=positive_int, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    p.add_argument("--cluster", metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
+                        "(N worker processes here); default: this machine")
 
 
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
+    from codermind_harness.cluster import open_cluster
     from codermind_harness.compare import Options, Thresholds, format_table, run as compare
     from codermind_harness.sides import HarnessError
 
@@ -83,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
                   progress=not args.quiet, workers=args.workers,
                   noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds)
     try:
-        records, status = compare(args.scenes, opt, args.variant)
+        with open_cluster(args.cluster, progress=not args.quiet):
+            records, status = compare(args.scenes, opt, args.variant)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
     except OSError as e:        # the output folder or a file in it cannot be written

@@ -30,6 +30,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=positive_int, metavar="N",
                    help="worker processes (default: one per core for large renders); "
                         "the image does not depend on it")
+    p.add_argument("--cluster", metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
+                        "(N worker processes here); default: this machine")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,8 +47,12 @@ def run(args: argparse.Namespace) -> int:
     base = Path(args.output) if args.output else Path.cwd() / scene_path.stem
     if base.suffix.lower() in (".tga", ".png", ".exr"):
         base = base.with_suffix("")
-    result = ref.render(scene, args.mode, args.seed, args.complexity, exposure=args.exposure,
-                        workers=args.workers, progress=PortProgress(scene_path.name))
+    from codermind_harness.cluster import open_cluster
+    with open_cluster(args.cluster) as cluster:     # tiles of rows as tasks; same image
+        result = ref.render(scene, args.mode, args.seed, args.complexity,
+                            exposure=args.exposure, workers=args.workers,
+                            progress=None if cluster else PortProgress(scene_path.name),
+                            tile_map=cluster.tile_map if cluster else None)
     for warning in result.warnings[len(scene.warnings):]:     # found while rendering
         print(f"codermind: warning: {warning}", file=sys.stderr)
     try:

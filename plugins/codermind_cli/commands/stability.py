@@ -27,17 +27,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="fewer sweep points and samples (about 10x faster, coarser thresholds)")
     p.add_argument("--only", nargs="+", metavar="NAME", choices=_sweep_names(),
                    help="run only these sweeps: " + ", ".join(_sweep_names()))
+    p.add_argument("--cluster", metavar="ADDRESS",
+                   help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
+                        "(N worker processes here); default: this machine; one sweep per task")
 
 
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
     from codermind_harness import stability
+    from codermind_harness.cluster import open_cluster
 
     outdir = Path(args.output)
     command = "codermind stability -o " + str(args.output) + (" --quick" if args.quick else "") + \
         (" --only " + " ".join(args.only) if args.only else "")
-    results = stability.run(args.only, quick=args.quick,
-                            progress=lambda line: print(line, file=sys.stderr, flush=True))
+    with open_cluster(args.cluster):
+        results = stability.run(args.only, quick=args.quick,
+                                progress=lambda line: print(line, file=sys.stderr, flush=True))
     try:
         stability.write_report(results, outdir, command)
     except OSError as e:
