@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, take_float
 from ..params import FLOAT32_MIN_NORMAL
 from ._params import read_float, read_texture
 
@@ -53,6 +54,10 @@ class TutorialBSDF(mi.BSDF):
        - |int|
        - Which tutorial program's transport the material follows: 1 or 2 (mirror model)
          or 4 (Fresnel roulette) (Default: 4). Page 1 is page 2 with ``specular`` 0.
+
+    ``mi.traverse`` exposes ``diffuse`` and ``specular`` (differentiable) and ``power``,
+    ``reflection``, ``refraction``, ``density`` (page 4 only for the last two;
+    non-differentiable: the kernels branch on them in Python).
 
     The material of the Codermind ray-tracing tutorial, written so that Mitsuba's
     built-in :monosp:`path` integrator computes exactly the tutorial's light transport
@@ -294,9 +299,28 @@ class TutorialBSDF(mi.BSDF):
                                  active: mi.Bool = True) -> mi.Spectrum:
         return self.diffuse.eval(si, active)
 
+    def _scalar_names(self) -> tuple[str, ...]:
+        return ("power", "reflection", "refraction", "density") if self.page == 4 else \
+            ("power", "reflection")
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
         callback.put("specular", self.specular, mi.ParamFlags.Differentiable)
+        # Python floats in the kernels (tested in Python: metal or not, power 0, ...)
+        for name in self._scalar_names():
+            callback.put(name, exposed(self, name), mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        name = self.plugin
+        limits = {"power": (0.0, None), "reflection": (0.0, 1.0), "refraction": (0.0, 1.0),
+                  "density": (0.0, None)}
+        for key in self._scalar_names():
+            if not keys or key in keys:
+                take_float(self, name, key, *limits[key])
+        if 0.0 < self.density < FLOAT32_MIN_NORMAL:
+            raise ValueError(f"{name}: 'density' must be 0 (a metal) or at least "
+                             f"{FLOAT32_MIN_NORMAL:.3g} (float32), got {self.density:g}")
+        self.metal = self.density == 0 or (self.reflection == 0 and self.refraction == 0)
 
     def to_string(self) -> str:
         extra = (f",\n  refraction = {self.refraction},\n  density = {self.density}"

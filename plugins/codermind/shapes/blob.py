@@ -4,9 +4,11 @@ import math
 import re
 import time
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..exposed import exposed, scalar
 from ._blobmesh import BlobMeshError, build_blob_mesh
 
 _CENTER = re.compile(r"center(\d+)$")
@@ -24,6 +26,11 @@ def blob(props: mi.Properties) -> mi.Mesh:
      * - center0, center1, ...
        - |point|
        - Source centres :math:`c_i`, any number, numbered from 0 without gaps.
+
+     * - centers
+       - |string|
+       - Alternative to ``center0..``: all centres as 3N numbers ``x0 y0 z0 x1 y1 z1 ...``
+         (spaces or commas; in object space, before ``to_world``).
 
      * - radius
        - |float|
@@ -61,6 +68,12 @@ def blob(props: mi.Properties) -> mi.Mesh:
        -
        - As any Mitsuba mesh: a nested BSDF, emitter or sensor, ``interior`` /
          ``exterior`` media, ``face_normals``, ``flip_normals``.
+
+    ``mi.traverse`` exposes ``centers`` (a flat ``mi.Float`` of 3N numbers, object
+    space), ``radius`` and ``max_error`` (non-differentiable for now); changing any of
+    them re-tessellates the mesh in ``parameters_changed`` (the number of centres may
+    change too). The mesh's own buffers (``vertex_positions``, ...) are exposed as for
+    any mesh.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
     isosurface; triangles where the measured error exceeds ``max_error`` are split by
@@ -100,6 +113,15 @@ def blob(props: mi.Properties) -> mi.Mesh:
     max_error = _float(props, "max_error", None)
     if max_error is None:
         max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
+    return Blob(props, centers, radius, field, normals, matrix, max_error)
+
+
+def _mesh_arrays(centers: np.ndarray, radius: float, field: str, normals: str,
+                 matrix: np.ndarray, max_error: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World-space vertices, faces and vertex normals (possibly empty) of the blob."""
+    linear = matrix[:3, :3]
+    scale = float(np.linalg.svd(linear, compute_uv=False)[0])
     t0 = time.perf_counter()
     try:
         mesh = build_blob_mesh(centers, radius, field, max_error / scale, normals=normals,
@@ -126,23 +148,68 @@ def blob(props: mi.Properties) -> mi.Mesh:
         mi.Log(mi.LogLevel.Warn, f"blob: the surface joins center{i} and center{j} by a neck "
                                  f"thinner than the mesh resolution, which the mesh lost: lower "
                                  f"max_error (cell size {mesh.info['cell_size'] * scale:.3g})")
+    return v, f, n
 
-    out = mi.Mesh(props.id() or "blob", len(v), len(f), props, has_vertex_normals=len(n) > 0)
-    params = mi.traverse(out)
 
-    def buffer(key: str, a: np.ndarray, dtype) -> None:
-        # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
-        params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
+class Blob(mi.Mesh):
+    """The blob's triangle mesh. Mitsuba 3.9.1 cannot subclass ``mi.Shape`` from Python,
+    but it can subclass ``mi.Mesh``: the object keeps the blob's own parameters and
+    re-tessellates itself in ``parameters_changed`` (the mesh's buffers may change size;
+    the scene, notified after the shape, rebuilds its acceleration structure)."""
 
-    buffer("vertex_positions", v, np.float32)
-    buffer("faces", f, np.uint32)
-    if len(n):  # set in the same update as the positions, or Mitsuba recomputes them
-        buffer("vertex_normals", n, np.float32)
-    params.update()
-    return out
+    def __init__(self, props: mi.Properties, centers: np.ndarray, radius: float, field: str,
+                 normals: str, matrix: np.ndarray, max_error: float):
+        v, f, n = _mesh_arrays(centers, radius, field, normals, matrix, max_error)
+        super().__init__(props.id() or "blob", len(v), len(f), props,
+                         has_vertex_normals=normals != "flat")
+        self.field, self.normals, self.matrix = field, normals, matrix
+        self.centers, self.radius, self.max_error = centers, radius, max_error
+        self._set_buffers(v, f, n)
+
+    def _set_buffers(self, v: np.ndarray, f: np.ndarray, n: np.ndarray) -> None:
+        params = mi.traverse(self)
+
+        def buffer(key: str, a: np.ndarray, dtype) -> None:
+            # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
+            params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
+
+        buffer("vertex_positions", v, np.float32)
+        buffer("faces", f, np.uint32)
+        if len(n):  # set in the same update as the positions, or Mitsuba recomputes them
+            buffer("vertex_normals", n, np.float32)
+        params.update()
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        super().traverse(callback)
+        nd = mi.ParamFlags.NonDifferentiable
+        if dr.is_jit_v(mi.Float):     # (a scalar variant has no array type for them)
+            callback.put("centers", exposed(self, "centers", lambda: mi.Float(
+                np.ascontiguousarray(self.centers, dtype=np.float32).ravel())), nd)
+        callback.put("radius", exposed(self, "radius"), nd)
+        callback.put("max_error", exposed(self, "max_error"), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        own = [k for k in ("centers", "radius", "max_error") if k in keys]
+        if own:
+            flat = np.array(dr.detach(exposed(self, "centers")) if "centers" in keys
+                            else self.centers, dtype=np.float64).ravel()
+            if flat.size == 0 or flat.size % 3:
+                raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got "
+                                 f"{flat.size}")
+            radius = scalar(exposed(self, "radius"))
+            max_error = scalar(exposed(self, "max_error"))
+            v, f, n = _mesh_arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
+                                   self.matrix, max_error)
+            self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
+            self._set_buffers(v, f, n)
+        rest = [k for k in keys if k not in own]
+        if rest or not keys:
+            super().parameters_changed(rest)
 
 
 def _centers(props: mi.Properties) -> np.ndarray:
+    if "centers" in props:
+        return _center_array(props)
     found = {}
     for key in props.keys():
         m = _CENTER.match(key)
@@ -162,6 +229,21 @@ def _centers(props: mi.Properties) -> np.ndarray:
         except (TypeError, IndexError):
             raise ValueError(f"blob: '{found[i]}' must be a point") from None
     return np.array(out)
+
+
+def _center_array(props: mi.Properties) -> np.ndarray:
+    """``centers``: 3N numbers x0 y0 z0 x1 ... (a string, separated by spaces or commas)."""
+    if any(_CENTER.match(key) for key in props.keys()):
+        raise ValueError("blob: give either 'centers' or 'center0', 'center1', ..., not both")
+    value = props.get("centers")
+    try:
+        flat = np.array([float(x) for x in str(value).replace(",", " ").split()])
+    except ValueError:
+        raise ValueError(f"blob: 'centers' must be 3N numbers (x0 y0 z0 x1 ...), got "
+                         f"{value!r}") from None
+    if flat.size == 0 or flat.size % 3:
+        raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got {flat.size}")
+    return flat.reshape(-1, 3)
 
 
 def _float(props: mi.Properties, name: str, default):

@@ -9,6 +9,7 @@ import math
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, scalar_matrix, take_float, take_int
 from ..params import FLOAT32_MAX, number
 from . import _noise
 
@@ -102,10 +103,33 @@ class SolidTexture(mi.Texture):
     def is_spatially_varying(self) -> bool:
         return True
 
+    #: Python-float parameters exposed to ``mi.traverse`` (non-differentiable: the noise
+    #: lattice makes the texture discontinuous in them), each > 0.
+    exposed_floats: tuple[str, ...] = ("frequency",)
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         if self.mixes_colors:
             callback.put("color0", self.color0, mi.ParamFlags.Differentiable)
             callback.put("color1", self.color1, mi.ParamFlags.Differentiable)
+        nd = mi.ParamFlags.NonDifferentiable
+        for name in self.exposed_floats:
+            callback.put(name, exposed(self, name), nd)
+        if hasattr(self, "octaves"):
+            callback.put("octaves", exposed(self, "octaves"), nd)
+        callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
+            mi.ScalarMatrix4f(1.0) if self.identity else self.to_world.matrix)), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        for name in self.exposed_floats:
+            if not keys or name in keys:
+                take_float(self, self.plugin, name, lo=0.0, open_lo=True)
+        if hasattr(self, "octaves") and (not keys or "octaves" in keys):
+            take_int(self, self.plugin, "octaves", 1, 64)
+        if not keys or "to_world" in keys:
+            matrix = scalar_matrix(exposed(self, "to_world"))
+            self.identity = False
+            self.to_world = mi.ScalarTransform4f(matrix)
+            self.to_local = mi.Transform4f(self.to_world.inverse().matrix)
 
     def to_string(self) -> str:
         colors = (f",\n  color0 = {self.color0},\n  color1 = {self.color1}"

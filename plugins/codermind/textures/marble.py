@@ -32,7 +32,9 @@ class MarbleTexture(TurbulenceBase):
 
      * - frequency
        - |float|
-       - Base frequency :math:`f` of the turbulence in 1/world units (Default: 0.05)
+       - Base frequency :math:`f` of the turbulence per world unit (Default: 0.05, the
+         tutorial's, whose scenes are in pixels: a metre-scale scene needs about 100
+         times more)
 
      * - octaves
        - |int|
@@ -40,7 +42,7 @@ class MarbleTexture(TurbulenceBase):
 
      * - stripe_frequency
        - |float|
-       - Frequency :math:`s` of the stripes along :math:`x + y` (Default: 0.05)
+       - Frequency :math:`s` of the stripes along :math:`x + y`, per world unit (Default: 0.05)
 
      * - to_world
        - |transform|
@@ -78,6 +80,8 @@ class MarbleTexture(TurbulenceBase):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.stripe_frequency = positive_float(props, self.plugin, "stripe_frequency", 0.05)
+
+    exposed_floats = ("frequency", "stripe_frequency")
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         t = self.turbulence(p)
