@@ -91,6 +91,9 @@ class MarbleTexture(TurbulenceBase):
     def mean_weight(self) -> float:
         return 0.5
 
+    def highest_frequency(self) -> float:
+        return max(super().highest_frequency(), float(self.stripe_frequency))
+
     def describe(self) -> str:
         return f"{super().describe()},\n  stripe_frequency = {self.stripe_frequency}"
 
