@@ -45,6 +45,12 @@ import numpy as np
 from .sides import Grid, HarnessError, encode_mitsuba, load_mitsuba, parse, port_exposure, twin_of
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def scenes_dir() -> Path:
+    """The bundled scenes: the repository's scenes/ or the installed copy (codermind.bundled)."""
+    from codermind.bundled import scenes_dir as find
+    return find()
 SCENES = ("page1", "page2", "page3", "page4", "garden")
 #: Value used to draw an error of exactly 0 on a log axis (the reference itself).
 ZERO_FLOOR = 1e-10
@@ -294,7 +300,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
     from codermind.tutorial_render import read_settings
     if name == "garden":
         return chart_garden(cfg)
-    txt, xml = twin_of(ROOT / "scenes" / f"{name}.xml")
+    txt, xml = twin_of(scenes_dir() / f"{name}.xml")
     scene = parse(txt)
     settings = read_settings(xml)
     w, h = scene.width, scene.height
@@ -347,7 +353,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
     floor = None
     if ref_var is not None:
         floor = float(np.mean(ref_var / (np.square(ref_lin) + 0.01)))
-    return {"scene": name, "xml": str(xml.relative_to(ROOT)), "crop": list(rect),
+    return {"scene": name, "xml": f"scenes/{xml.name}", "crop": list(rect),
             "deterministic": det, "exposure": exposure, "reference": ref_desc,
             "reference_seconds": ref_s, "reference_noise_rel_mse": floor,
             "warmup_seconds_median": statistics.median(runner.warmups) if runner.warmups else None,
@@ -363,7 +369,7 @@ def chart_garden(cfg: Config) -> dict:
     from codermind.tutorial_render import render_linear
     from .metrics import flip, rel_mse
     _set_variant("llvm_ad_rgb")
-    xml = ROOT / "scenes" / "garden.xml"
+    xml = scenes_dir() / "garden.xml"
     w, h = cfg.garden_size
     t0 = time.perf_counter()
     scene = load_scene(xml, resx=str(w), resy=str(h))

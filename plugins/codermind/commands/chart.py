@@ -24,10 +24,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="chart only these scenes: " + ", ".join(SCENES))
     p.add_argument("--no-cost", action="store_true",
                    help="skip the cost-scaling experiments")
+    p.add_argument("--scenes", metavar="DIR",
+                   help="folder of the bundled scenes (default: the repository's scenes/, "
+                        "or the copy installed with the package)")
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
     from ..errors import CodermindError
+    if args.scenes is not None:
+        if not (Path(args.scenes) / "page1.xml").is_file():
+            raise CodermindError(f"--scenes {args.scenes}: not a folder of the bundled "
+                                 f"scenes (no page1.xml)")
+        os.environ["CODERMIND_SCENES"] = str(Path(args.scenes).resolve())
     from codermind_harness import chart
     from codermind_harness.sides import HarnessError
     try:
