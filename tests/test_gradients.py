@@ -65,6 +65,7 @@ CASES = [
     ("noisebump", "obj.bsdf.bumplevel"),
     ("tutorial", "obj.bsdf.diffuse.value"),
     ("tutorial", "obj.bsdf.specular.value"),
+    ("tutorial", "obj.bsdf.power"),
     ("tutorialpoint", "light.intensity.value"),
     ("cubemap", "env.scale"),
     ("cubemap", "env.data"),

@@ -55,9 +55,11 @@ class TutorialBSDF(mi.BSDF):
        - Which tutorial program's transport the material follows: 1 or 2 (mirror model)
          or 4 (Fresnel roulette) (Default: 4). Page 1 is page 2 with ``specular`` 0.
 
-    ``mi.traverse`` exposes ``diffuse`` and ``specular`` (differentiable) and ``power``,
-    ``reflection``, ``refraction``, ``density`` (page 4 only for the last two;
-    non-differentiable: the kernels branch on them in Python).
+    ``mi.traverse`` exposes ``diffuse``, ``specular`` and ``power`` (differentiable; not
+    at ``power`` = 0, where the lobe switches to a constant) and ``reflection``,
+    ``refraction``, ``density`` (page 4 only for the last two; non-differentiable: they
+    also set the probabilities of the sampled mirror and refraction events, whose
+    derivatives ``prb`` does not take).
 
     The material of the Codermind ray-tracing tutorial, written so that Mitsuba's
     built-in :monosp:`path` integrator computes exactly the tutorial's light transport
@@ -231,7 +233,7 @@ class TutorialBSDF(mi.BSDF):
             h = si.wi + wo
             len2 = dr.squared_norm(h)
             cos_h = dr.maximum(h.z * dr.rsqrt(dr.select(len2 > 0, len2, 1.0)), 0.0)
-            blinn = mi.Float(1.0) if self.power == 0 else dr.power(cos_h, self.power)
+            blinn = mi.Float(1.0) if self.power == 0 else dr.power(cos_h, self._power())
             value += self.specular.eval(si, active) * dr.select(len2 > 0, blinn, 0.0)
         return value & (active & (cos_o > 0))
 
@@ -299,6 +301,11 @@ class TutorialBSDF(mi.BSDF):
                                  active: mi.Bool = True) -> mi.Spectrum:
         return self.diffuse.eval(si, active)
 
+    def _power(self):
+        """The Blinn exponent for the kernels: the traversed ``mi.Float`` (gradients
+        included) once ``mi.traverse`` has exposed it, else the float."""
+        return self.__dict__.get("_exposed", {}).get("power", self.power)
+
     def _scalar_names(self) -> tuple[str, ...]:
         return ("power", "reflection", "refraction", "density") if self.page == 4 else \
             ("power", "reflection")
@@ -306,9 +313,13 @@ class TutorialBSDF(mi.BSDF):
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
         callback.put("specular", self.specular, mi.ParamFlags.Differentiable)
-        # Python floats in the kernels (tested in Python: metal or not, power 0, ...)
+        # power: differentiable (the kernels use the traversed mi.Float, see _power;
+        # the Python test power == 0 stays on the float). The weights and the density also
+        # set the probabilities of the sampled events, whose derivatives prb does not take
+        # (the tutorial's event weights are not value / pdf): non-differentiable.
         for name in self._scalar_names():
-            callback.put(name, exposed(self, name), mi.ParamFlags.NonDifferentiable)
+            callback.put(name, exposed(self, name), mi.ParamFlags.Differentiable
+                         if name == "power" else mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys: list[str]) -> None:
         name = self.plugin
