@@ -20,7 +20,7 @@ class PerlinTexture(SolidTexture):
 
      * - frequency
        - |float|
-       - Noise frequency :math:`f` in 1/world units (Default: 1)
+       - Noise frequency :math:`f` per world unit (Default: 1)
 
      * - scale, offset
        - |float|
