@@ -70,9 +70,10 @@ def blob(props: mi.Properties) -> mi.Mesh:
          ``exterior`` media, ``face_normals``, ``flip_normals``.
 
     ``mi.traverse`` exposes ``centers`` (a flat ``mi.Float`` of 3N numbers, object
-    space), ``radius`` and ``max_error`` (non-differentiable for now); changing any of
-    them re-tessellates the mesh in ``parameters_changed`` (the number of centres may
-    change too). The mesh's own buffers (``vertex_positions``, ...) are exposed as for
+    space) and ``radius``, both differentiable, and ``max_error``; changing any of them
+    re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
+    too). With gradients enabled on the centres or the radius, the vertex positions carry
+    their derivatives by the implicit function theorem (vertex normals do not). The mesh's own buffers (``vertex_positions``, ...) are exposed as for
     any mesh.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
@@ -166,10 +167,51 @@ class Blob(mi.Mesh):
         self.centers, self.radius, self.max_error = centers, radius, max_error
         self._set_buffers(v, f, n)
 
-    def _set_buffers(self, v: np.ndarray, f: np.ndarray, n: np.ndarray) -> None:
+    def _attached(self, v: np.ndarray):
+        """World vertices ``v``, with the derivatives with respect to the centres and the
+        radius attached when either has gradients enabled (else ``v`` itself).
+
+        A vertex p lies on F(p; c, R) = 1; moved along the field's gradient to stay on it
+        (implicit function theorem), dp = -(dF/dc . dc + dF/dR dR) grad_p F / |grad_p F|^2,
+        with dF/dc_i = -g_i (g_i: source i's term of grad_p F) and
+        dF/dR = sum_i f'(x_i) (-2 x_i / R). In world space dp is mapped by to_world's linear
+        part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
+        gradients through the shading normal)."""
+        if not dr.is_diff_v(mi.Float):
+            return v
+        c_ad, r_ad = exposed(self, "centers"), exposed(self, "radius")
+        if not (dr.grad_enabled(c_ad) or dr.grad_enabled(r_ad)):
+            return v
+        from ._blobfield import BlobField
+        linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
+        p = (v - shift) @ np.linalg.inv(linear).T          # object space
+        field = BlobField(self.centers, self.radius, self.field)
+        grad = field.gradient(p, mean_at_bounds=True)
+        dc = c_ad - dr.detach(c_ad)                        # 0, carrying dc's gradients
+        dr_ = r_ad - dr.detach(r_ad)
+        speed = mi.Float(0.0)                              # -(dF/dtheta . dtheta)
+        dfdr = np.zeros(len(p))
+        for i, c in enumerate(field.centers):
+            x = field.sqdist(p, i)
+            df = field.df(x, mean_at_bounds=True)
+            g = (2.0 * field.inv_r2) * df[:, None] * (p - c)
+            for axis in range(3):
+                speed += mi.Float(g[:, axis].astype(np.float32)) * \
+                    dr.gather(mi.Float, dc, 3 * i + axis)
+            dfdr += df * (-2.0 * x / field.radius)
+        speed -= mi.Float(dfdr.astype(np.float32)) * dr_
+        direction = (grad / np.maximum((grad * grad).sum(1), 1e-300)[:, None]) @ linear.T
+        moved = [mi.Float(v[:, k].astype(np.float32)) +
+                 mi.Float(direction[:, k].astype(np.float32)) * speed for k in range(3)]
+        return dr.ravel(mi.Point3f(*moved))
+
+    def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
         params = mi.traverse(self)
 
-        def buffer(key: str, a: np.ndarray, dtype) -> None:
+        def buffer(key: str, a, dtype) -> None:
+            if dr.is_array_v(a):                            # AD-attached positions
+                params[key] = a
+                return
             # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
             params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
 
@@ -182,10 +224,11 @@ class Blob(mi.Mesh):
     def traverse(self, callback: mi.TraversalCallback) -> None:
         super().traverse(callback)
         nd = mi.ParamFlags.NonDifferentiable
+        geometry = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
         if dr.is_jit_v(mi.Float):     # (a scalar variant has no array type for them)
             callback.put("centers", exposed(self, "centers", lambda: mi.Float(
-                np.ascontiguousarray(self.centers, dtype=np.float32).ravel())), nd)
-        callback.put("radius", exposed(self, "radius"), nd)
+                np.ascontiguousarray(self.centers, dtype=np.float32).ravel())), geometry)
+        callback.put("radius", exposed(self, "radius"), geometry if dr.is_jit_v(mi.Float) else nd)
         callback.put("max_error", exposed(self, "max_error"), nd)
 
     def parameters_changed(self, keys: list[str]) -> None:
@@ -201,7 +244,7 @@ class Blob(mi.Mesh):
             v, f, n = _mesh_arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
                                    self.matrix, max_error)
             self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
-            self._set_buffers(v, f, n)
+            self._set_buffers(self._attached(v), f, n)
         rest = [k for k in keys if k not in own]
         if rest or not keys:
             super().parameters_changed(rest)
