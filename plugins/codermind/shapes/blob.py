@@ -73,8 +73,10 @@ def blob(props: mi.Properties) -> mi.Mesh:
     space) and ``radius``, both differentiable, and ``max_error``; changing any of them
     re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
     too). With gradients enabled on the centres or the radius, the vertex positions carry
-    their derivatives by the implicit function theorem (vertex normals do not). The mesh's own buffers (``vertex_positions``, ...) are exposed as for
-    any mesh.
+    their derivatives by the implicit function theorem (vertex normals do not; on the
+    ``tutorial`` field's creases, where the field has no gradient, the derivative uses the
+    mean of both sides and is approximate). The mesh's own buffers
+    (``vertex_positions``, ...) are exposed as for any mesh.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
     isosurface; triangles where the measured error exceeds ``max_error`` are split by
