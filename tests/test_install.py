@@ -89,3 +89,24 @@ def test_chart_quick_from_outside_the_repository(installed):
     assert [s["scene"] for s in doc["scenes"]] == ["page1"]
     assert doc["scenes"][0]["xml"] == "scenes/page1.xml"
     assert (outside / "chart" / "error_vs_time_page1.png").is_file()
+
+
+def test_missing_harness_extra_is_one_line(monkeypatch, capsys):
+    """Without the harness extra (matplotlib absent) the CLI says what to install."""
+    from codermind import cli
+
+    def needs_matplotlib(args):
+        raise ModuleNotFoundError("No module named 'matplotlib'", name="matplotlib")
+
+    monkeypatch.setattr(cli, "build_parser", lambda: _parser(needs_matplotlib))
+    assert cli.main(["x"]) == cli.EXIT_USAGE
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pip install 'codermind-mitsuba[harness]'" in err
+
+
+def _parser(run):
+    import argparse
+    p = argparse.ArgumentParser()
+    p.add_argument("x")
+    p.set_defaults(run=run)
+    return p

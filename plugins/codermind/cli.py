@@ -59,6 +59,10 @@ def one_line(message: str) -> str:
     return "; ".join(line for line in lines if line)
 
 
+#: Top-level modules of the ``harness`` extra (compare, chart, stability need them).
+HARNESS_MODULES = ("matplotlib", "flip_evaluator")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -70,6 +74,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("codermind: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as e:
+        if e.name not in HARNESS_MODULES:
+            raise
+        print(f"codermind: error: this command needs {e.name}, from the package's 'harness' "
+              f"extra: pip install 'codermind-mitsuba[harness]'", file=sys.stderr)
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":
