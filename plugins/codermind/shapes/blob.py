@@ -74,8 +74,8 @@ def blob(props: mi.Properties) -> mi.Mesh:
     re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
     too). With gradients enabled on the centres or the radius, the vertex positions carry
     their derivatives by the implicit function theorem (vertex normals do not; on the
-    ``tutorial`` field's creases, where the field has no gradient, the derivative uses the
-    mean of both sides and is approximate). The mesh's own buffers
+    ``tutorial`` field's creases, the zone spheres where the field has a kink, a vertex
+    also stays on its crease). The mesh's own buffers
     (``vertex_positions``, ...) are exposed as for any mesh.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
@@ -176,8 +176,10 @@ class Blob(mi.Mesh):
         A vertex p lies on F(p; c, R) = 1; moved along the field's gradient to stay on it
         (implicit function theorem), dp = -(dF/dc . dc + dF/dR dR) grad_p F / |grad_p F|^2,
         with dF/dc_i = -g_i (g_i: source i's term of grad_p F) and
-        dF/dR = sum_i f'(x_i) (-2 x_i / R). In world space dp is mapped by to_world's linear
-        part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
+        dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a crease of the zone field (a
+        zone sphere x_i = 10/k, where F has a kink) also keeps x_i = 10/k: dp is then the
+        least-norm motion meeting both constraints. In world space dp is mapped by
+        to_world's linear part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
         gradients through the shading normal)."""
         if not dr.is_diff_v(mi.Float):
             return v
@@ -188,23 +190,54 @@ class Blob(mi.Mesh):
         linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
         p = (v - shift) @ np.linalg.inv(linear).T          # object space
         field = BlobField(self.centers, self.radius, self.field)
-        grad = field.gradient(p, mean_at_bounds=True)
         dc = c_ad - dr.detach(c_ad)                        # 0, carrying dc's gradients
         dr_ = r_ad - dr.detach(r_ad)
-        speed = mi.Float(0.0)                              # -(dF/dtheta . dtheta)
+        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+        grad = np.zeros_like(p)
         dfdr = np.zeros(len(p))
+        s1 = mi.Float(0.0)                                 # -(dF/dtheta . dtheta)
+        s2 = mi.Float(0.0)                                 # the crease's x_i constraint
+        crease = np.full(len(p), -1)
+        normal2 = np.zeros_like(p)                         # grad_p x_i of that crease
         for i, c in enumerate(field.centers):
             x = field.sqdist(p, i)
-            df = field.df(x, mean_at_bounds=True)
+            df = field.df(x)                               # one-sided on a crease
             g = (2.0 * field.inv_r2) * df[:, None] * (p - c)
-            for axis in range(3):
-                speed += mi.Float(g[:, axis].astype(np.float32)) * \
-                    dr.gather(mi.Float, dc, 3 * i + axis)
+            grad += g
             dfdr += df * (-2.0 * x / field.radius)
-        speed -= mi.Float(dfdr.astype(np.float32)) * dr_
-        direction = (grad / np.maximum((grad * grad).sum(1), 1e-300)[:, None]) @ linear.T
-        moved = [mi.Float(v[:, k].astype(np.float32)) +
-                 mi.Float(direction[:, k].astype(np.float32)) * speed for k in range(3)]
+            dc_i = [dr.gather(mi.Float, dc, 3 * i + axis) for axis in range(3)]
+            s1 += sum(f32(g[:, axis]) * dc_i[axis] for axis in range(3))
+            if field.kind == "tutorial":
+                # on a zone sphere x_i = 10/k the field has a kink; the vertex stays on the
+                # crease: also x_i(p + dp; c + dc, R + dR) = 10/k
+                k = 10.0 / np.maximum(x, 1e-30)
+                j = np.rint(k)
+                at = (np.abs(k - j) <= 1e-9 * j) & (j >= 1) & (j <= 9) & (crease < 0)
+                if at.any():
+                    crease[at] = i
+                    a2 = (2.0 * field.inv_r2) * (p - c)
+                    normal2[at] = a2[at]
+                    rhs = sum(f32(np.where(at, a2[:, axis], 0.0)) * dc_i[axis]
+                              for axis in range(3))
+                    s2 += rhs + f32(np.where(at, 2.0 * x / field.radius, 0.0)) * dr_
+        s1 -= f32(dfdr) * dr_
+        # dp = u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
+        g2 = np.maximum((grad * grad).sum(1), 1e-300)
+        u1, u2 = grad / g2[:, None], np.zeros_like(p)
+        on = crease >= 0
+        if on.any():
+            a, b = grad[on], normal2[on]
+            m11, m12, m22 = (a * a).sum(1), (a * b).sum(1), (b * b).sum(1)
+            det = m11 * m22 - m12 * m12
+            ok = det > 1e-6 * m11 * m22                    # not tangent (one sphere)
+            inv11, inv12, inv22 = m22 / np.where(ok, det, 1), -m12 / np.where(ok, det, 1), \
+                m11 / np.where(ok, det, 1)
+            w1 = a * inv11[:, None] + b * inv12[:, None]
+            w2 = a * inv12[:, None] + b * inv22[:, None]
+            idx = np.flatnonzero(on)[ok]
+            u1[idx], u2[idx] = w1[ok], w2[ok]
+        u1, u2 = u1 @ linear.T, u2 @ linear.T
+        moved = [f32(v[:, k]) + f32(u1[:, k]) * s1 + f32(u2[:, k]) * s2 for k in range(3)]
         return dr.ravel(mi.Point3f(*moved))
 
     def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
