@@ -18,7 +18,7 @@ import time
 import numpy as np
 from skimage.measure import marching_cubes
 
-from codermind.shapes._blobmesh import build_blob_mesh
+from codermind.blobmesh import build_blob_mesh
 
 CENTERS = np.array([(160, 290, 320), (400, 290, 480), (250, 140, 400)], float)
 RADIUS = 80.0

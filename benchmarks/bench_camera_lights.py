@@ -66,7 +66,7 @@ def latlong_of(cubemap: mi.Emitter, width: int = 2048) -> mi.Bitmap:
     theta, phi = v.ravel() * np.pi, u.ravel() * 2 * np.pi
     si = dr.zeros(mi.SurfaceInteraction3f, theta.size)
     si.wi = -mi.Vector3f(np.sin(phi) * np.sin(theta), np.cos(theta), -np.cos(phi) * np.sin(theta))
-    rgb = np.array(cubemap.eval(si)).reshape(h, width, 3)
+    rgb = np.array(cubemap.eval(si)).T.reshape(h, width, 3)   # (3, n) -> (n, 3)
     return mi.Bitmap(rgb.astype(np.float32))
 
 

@@ -12,7 +12,9 @@ Groups:
   turbulence / marble, 1, 3, 9 octaves vs checkerboard, and their cost per octave
   noise core before/after: Perlin's reference structure (14 table look-ups, branchy
   gradient; also with an 8-bit table), 5 look-ups with the branchy gradient, and the
-  plugin's (5 look-ups of pre-combined tables, arithmetic gradient); all bit-identical
+  plugin's (5 look-ups of pre-combined tables, arithmetic gradient) with its reference
+  gradient, all bit-identical; and the plugin's default, the tutorial's gradient, against
+  the same 14-look-up structure with the tutorial's branchy gradient (bit-identical)
 
     python benchmarks/bench_materials.py [--rounds 7] [--size 384] [--spp 8] [--threads N]
 """
@@ -37,17 +39,24 @@ def branchy_grad(hash_, x, y, z):
     return dr.select((h & 1) == 0, u, -u) + dr.select((h & 2) == 0, v, -v)
 
 
-def reference_noise(x, y, z, table_type=None):
+def branchy_grad_tutorial(hash_, x, y, z):
+    """The tutorial's grad() (spec 2.8) with its branches as selects."""
+    h = hash_ & 15
+    twelve = (h == 12) | (h == 13)
+    u = dr.select((h < 8) | twelve, x, y)
+    v = dr.select((h < 4) | twelve, y, z)
+    return dr.select((h & 1) == 0, u, -u) + dr.select((h & 2) == 0, v, -v)
+
+
+def reference_noise(x, y, z, table_type=None, grad=branchy_grad):
     """Perlin's reference structure: 14 look-ups in the 512-entry table (UInt32, or the
-    8-bit type given)."""
+    8-bit type given), with the branchy gradient given."""
     from codermind.textures import _noise
     table_type = table_type or mi.UInt32
     p = table_type(np.array(_noise.PERMUTATION * 2, dtype=np.uint32))
 
     def perm(i):
         return mi.UInt32(dr.gather(table_type, p, i))
-
-    grad = branchy_grad
 
     fx, fy, fz = dr.floor(x), dr.floor(y), dr.floor(z)
     X, Y, Z = (mi.UInt32(mi.Int32(f) & 255) for f in (fx, fy, fz))
@@ -184,11 +193,18 @@ def bench_noise_core(rounds, n=4_000_000):
     fns = {"reference structure (14 look-ups)": reference_noise,
            "  same, 8-bit table": lambda x, y, z: reference_noise(x, y, z, dr.llvm.ad.UInt8),
            "5 look-ups, branchy grad": packed_noise_branchy,
-           "plugin (5 look-ups, arithmetic grad)": _noise.noise}
+           "plugin (5 look-ups, arithmetic grad)":
+               lambda x, y, z: _noise.noise(x, y, z, "reference"),
+           "tutorial grad, 14 look-ups, branchy":
+               lambda x, y, z: reference_noise(x, y, z, grad=branchy_grad_tutorial),
+           "plugin default (tutorial grad)": _noise.noise}
     xs = hashed_points(100_000, 60.0)
     ref = reference_noise(*xs).numpy()
+    tut = reference_noise(*xs, grad=branchy_grad_tutorial).numpy()
+    assert np.abs(ref - tut).max() > 0.1                           # the gradients differ
     for name, f in fns.items():
-        assert np.abs(f(*xs).numpy() - ref).max() == 0, name      # bit-identical
+        expected = tut if "tutorial" in name else ref
+        assert np.abs(f(*xs).numpy() - expected).max() == 0, name  # bit-identical
         dr.eval(dr.sum(f(*hashed_points(n, 60.0))))               # compile
     times = {k: [] for k in fns}
     for _ in range(rounds):
@@ -239,6 +255,9 @@ def main() -> None:
             s, spp, 3),
         "noisebump": scene({"type": "noisebump", "bumplevel": 0.3, "bsdf": {"type": "diffuse"}},
                            s, spp, 3),
+        "noisebump, reference gradient": scene({"type": "noisebump", "bumplevel": 0.3,
+                                                "gradient": "reference",
+                                                "bsdf": {"type": "diffuse"}}, s, spp, 3),
     }, R, "normalmap (built-in)")
 
     def textured(tex):
@@ -247,6 +266,8 @@ def main() -> None:
     configs = {
         "checkerboard (built-in)": textured({"type": "checkerboard"}),
         "perlin (1 octave)": textured({"type": "perlin", "frequency": 0.05}),
+        "perlin, reference gradient": textured({"type": "perlin", "frequency": 0.05,
+                                                "gradient": "reference"}),
         "perlin, reference structure (before)": textured({"type": "perlin_reference",
                                                           "frequency": 0.05}),
     }
@@ -254,6 +275,8 @@ def main() -> None:
         for octaves in (1, 3, 9):
             configs[f"{kind} ({octaves} octave{'s' if octaves > 1 else ''})"] = \
                 textured({"type": kind, "octaves": octaves})
+        configs[f"{kind} (9 octaves), reference gradient"] = \
+            textured({"type": kind, "gradient": "reference"})
     med = run_group("solid textures (diffuse reflectance of a plane filling the frame, direct "
                     "light only)", configs, R,
                     "checkerboard (built-in)")

@@ -52,7 +52,8 @@ def defaults(xml: Path) -> dict[str, str]:
 
 def weak_mirror(name: str, folder: Path) -> Path:
     """scenes/NAME.txt with Reflection 0.1, converted into ``folder``."""
-    from codermind.tutorial_convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     source = folder / f"{name}_weak.txt"
     source.write_text((SCENES / f"{name}.txt").read_text().replace("Reflection = 0.5;",
                                                                     "Reflection = 0.1;"))
@@ -71,8 +72,8 @@ def main() -> int:
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
-    from codermind import tutorial_render as tr
-    from codermind.tutorial_image import srgb_encode
+    from codermind.tutorial import render as tr
+    from codermind.tutorial.image import srgb_encode
 
     folder = Path(tempfile.mkdtemp(prefix="bench_model_"))
     cases = [(f"page{k}", SCENES / f"page{k}.xml") for k in (1, 2, 3, 4)]

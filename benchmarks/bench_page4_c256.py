@@ -75,7 +75,8 @@ def edit(text: str, section: str, key: str, value: str) -> str:
 def convert(source: Path, folder: Path, name: str, edits=(), **options) -> Path:
     """Convert ``source`` with ``edits`` ((section, key, value), ...) into ``folder``; the
     cube-map faces are linked next to the edited copy."""
-    from codermind.tutorial_convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     text = source.read_text()
     for section, key, value in edits:
         text = edit(text, section, key, value)
@@ -109,7 +110,7 @@ def main() -> int:
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
 
     folder = Path(tempfile.mkdtemp(prefix="bench_c256_"))
     print(f"scene {args.scene}, Complexity {args.complexity}, {load_text()}, "

@@ -11,17 +11,18 @@ from __future__ import annotations
 import numpy as np
 
 import codermind_ref as ref
-from codermind_harness import chart
+from codermind_harness import chart, chart_data
 from codermind_harness.sides import parse, port_exposure, twin_of
 
-RECT = chart.FULL.crops["page4"]
+RECT = chart_data.FULL.crops["page4"]
 
 
 def main() -> None:
-    chart._set_variant("llvm_ad_rgb")
-    txt, xml = twin_of(chart.ROOT / "scenes" / "page4.xml")
+    from codermind.variants import set_variant
+    set_variant("llvm_ad_rgb")
+    txt, xml = twin_of(chart_data.ROOT / "scenes" / "page4.xml")
     scene = parse(txt)
-    exposure = port_exposure(scene, chart.PORT_SEED)
+    exposure = port_exposure(scene, chart_data.PORT_SEED)
     runner = chart.MitsubaRunner(xml, scene.width, scene.height, scene.page)
     m, mv, *_ = runner.render(RECT, {"blob0_max_error": 0.02}, 256, 77, variance=True,
                               label="mitsuba 256 spp")

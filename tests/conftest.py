@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, settings
 
 # Hypothesis (tests/test_properties.py, tests/test_parser_fuzz.py): CI runs the "ci" profile,
 # small and derandomized (the same examples every run, no deadline flakiness); a long run is
-# HYPOTHESIS_PROFILE=long (random examples; see the README for the command and its result).
+# HYPOTHESIS_PROFILE=long (random examples; see docs/harness.md for the command, docs/results/properties.md for its result).
 PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "ci")
 _COMMON = dict(deadline=None, database=None, print_blob=True,
                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
@@ -45,8 +45,8 @@ def pytest_report_header(config) -> str:
 
 def run_cli(*args: str, cwd: str | os.PathLike | None = None, timeout: float = 300,
             env: dict | None = None) -> subprocess.CompletedProcess:
-    """Run ``python -m codermind ARGS`` and capture its output."""
-    return subprocess.run([sys.executable, "-m", "codermind", *map(str, args)], cwd=cwd,
+    """Run ``python -m codermind_cli ARGS`` (the ``codermind`` command) and capture its output."""
+    return subprocess.run([sys.executable, "-m", "codermind_cli", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout,
                           env={**os.environ, **(env or {})})
 

@@ -1,7 +1,13 @@
 """An independent double-precision (numpy float64) transcription of Ken Perlin's
-improved-noise reference code (2002), and the tutorial's turbulence and marble (spec
-2.6), for checking the plugins. It follows the reference line by line (14 table look-ups,
-the branchy ``grad``) and shares no code with ``codermind``."""
+improved-noise reference code (2002) and of the tutorial's version of it, and the
+tutorial's turbulence and marble (spec 2.6), for checking the plugins. It follows the code
+line by line (14 table look-ups, the branchy ``grad``) and shares no code with
+``codermind``.
+
+``gradient`` chooses the ``grad`` function (spec 2.8): ``"tutorial"`` (the tutorial's
+printed code: u = x if h < 8 or h is 12 or 13, else y; v = y if h < 4 or h is 12 or 13,
+else z) or ``"reference"`` (Perlin's: v = y if h < 4, x if h is 12 or 14, else z).
+Every function here defaults to the tutorial's, as the plugins do."""
 
 from __future__ import annotations
 
@@ -30,15 +36,27 @@ def _lerp(t, a, b):
     return a + t * (b - a)
 
 
-def _grad(hash_, x, y, z):
+def _grad_reference(hash_, x, y, z):
     h = hash_ & 15
     u = np.where(h < 8, x, y)
     v = np.where(h < 4, y, np.where((h == 12) | (h == 14), x, z))
     return np.where(h & 1 == 0, u, -u) + np.where(h & 2 == 0, v, -v)
 
 
-def noise(x, y, z):
-    """Perlin's noise(x, y, z) in float64 for arrays of coordinates."""
+def _grad_tutorial(hash_, x, y, z):
+    h = hash_ & 15
+    twelve = (h == 12) | (h == 13)
+    u = np.where((h < 8) | twelve, x, y)
+    v = np.where((h < 4) | twelve, y, z)
+    return np.where(h & 1 == 0, u, -u) + np.where(h & 2 == 0, v, -v)
+
+
+_GRADS = {"tutorial": _grad_tutorial, "reference": _grad_reference}
+
+
+def noise(x, y, z, gradient="tutorial"):
+    """noise(x, y, z) in float64 for arrays of coordinates, with the chosen gradient."""
+    _grad = _GRADS[gradient]
     x, y, z = (np.asarray(c, dtype=np.float64) for c in (x, y, z))
     fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
     X, Y, Z = (f.astype(np.int64) & 255 for f in (fx, fy, fz))
@@ -58,19 +76,22 @@ def noise(x, y, z):
                              _grad(p[BB + 1], x - 1, y - 1, z - 1))))
 
 
-def turbulence(p, frequency=0.05, octaves=9):
+def turbulence(p, frequency=0.05, octaves=9, gradient="tutorial"):
     """T = sum_k |noise(frequency k p)| / k, p of shape (3, n)."""
     p = np.asarray(p, dtype=np.float64)
-    return sum(np.abs(noise(*(frequency * k * p))) / k for k in range(1, octaves + 1))
+    return sum(np.abs(noise(*(frequency * k * p), gradient)) / k
+               for k in range(1, octaves + 1))
 
 
-def marble(p, frequency=0.05, octaves=9, stripe=0.05):
+def marble(p, frequency=0.05, octaves=9, stripe=0.05, gradient="tutorial"):
     """m = 0.5 sin(stripe (x + y) + T) + 0.5."""
     p = np.asarray(p, dtype=np.float64)
-    return 0.5 * np.sin(stripe * (p[0] + p[1]) + turbulence(p, frequency, octaves)) + 0.5
+    t = turbulence(p, frequency, octaves, gradient)
+    return 0.5 * np.sin(stripe * (p[0] + p[1]) + t) + 0.5
 
 
-def bump_vector(p, frequency=0.1):
+def bump_vector(p, frequency=0.1, gradient="tutorial"):
     """The tutorial's bump perturbation (noise(f(x,y,z)), noise(f(y,z,x)), noise(f(z,x,y)))."""
     x, y, z = np.asarray(p, dtype=np.float64) * frequency
-    return np.stack([noise(x, y, z), noise(y, z, x), noise(z, x, y)])
+    return np.stack([noise(x, y, z, gradient), noise(y, z, x, gradient),
+                     noise(z, x, y, gradient)])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import blob_reference as ref
-from codermind.shapes._blobmesh import BlobMeshError, build_blob_mesh, min_angles_deg
+from codermind.blobmesh import BlobMeshError, build_blob_mesh, min_angles_deg
 
 R = 80.0
 D_CRIT = 2 * np.sqrt(2) * R  # two sources separate at this distance (both fields)

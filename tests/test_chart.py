@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from codermind_harness.chart import fit_slope, pareto_front, time_to_reach
+from codermind_harness.chart_data import fit_slope, pareto_front, time_to_reach
 from conftest import run_cli
 
 

@@ -1,6 +1,7 @@
 """``codermind compare`` end to end on small grids of the bundled scenes: a pass, a
-deliberate mismatch that must fail, one-line errors for bad input; and the pieces the
-harness relies on (twins, distinct output names, the film crop)."""
+deliberate mismatch that must fail (in the image, and in the auto exposure alone), one-line
+errors for bad input; and the pieces the harness relies on (twins, distinct output names,
+the film crop)."""
 
 from __future__ import annotations
 
@@ -49,6 +50,39 @@ def test_page4_crop_compare_passes(tmp_path):
     assert z["pass_rate"] >= 0.99 and rec["flip_mean"] <= 0.01
     # the noise is real and the variances right: z spread about 1 over thousands of tests
     assert z["noisy_tests"] > 1000 and 0.9 < z["z_sd"] < 1.1
+    # each side's own auto exposure, 8 seeds each, agrees (Welch's t); the image used the
+    # port's exposure for seed 0, the first of them
+    e = rec["exposure_test"]
+    assert e["passed"] and e["method"] == "welch" and e["seeds"] == list(range(8))
+    assert rec["exposure"] == e["port"][0] and min(e["sd"]) > 0
+    assert abs(e["rel_diff"]) < 0.02
+
+
+@pytest.mark.parametrize("light1, verdict", [("0.6, 0.7, 1", 0), ("1.8, 2.1, 3", 1)])
+def test_an_exposure_error_fails_the_verdict_by_itself(tmp_path, light1, verdict):
+    """The page-4 XML with Light1 three times too bright (an edit of the Mitsuba side only)
+    moves its auto exposure by about -12 %; in a patch of sky the images do not see the light
+    (they are tone-mapped with the port's exposure), so only the exposure test can fail the
+    verdict. The unedited copy is the control: same patch, same options, it passes."""
+    (tmp_path / "page4.txt").symlink_to(SCENES / "page4.txt")
+    (tmp_path / "sky").symlink_to(SCENES / "sky")
+    text = (SCENES / "page4.xml").read_text()
+    assert text.count('value="0.6, 0.7, 1"') == 1
+    (tmp_path / "page4.xml").write_text(text.replace('value="0.6, 0.7, 1"', f'value="{light1}"'))
+    out = tmp_path / "out"
+    r = run_cli("compare", tmp_path / "page4.xml", "--rect", "300,430,308,436", "--spp", "16",
+                "-o", out, "-q", "--workers", "1")
+    assert r.returncode == verdict, r.stdout + r.stderr
+    rec = record(out)
+    assert rec["z_test"]["pass_rate"] >= 0.99 and rec["flip_mean"] <= 0.01   # images agree
+    e = rec["exposure_test"]
+    assert e["passed"] == (verdict == 0) and len(e["mitsuba"]) == len(e["port"]) == 8
+    if verdict:
+        assert e["p"] < 1e-3 and e["rel_diff"] < -0.05
+        assert rec["failures"] == [rec["failures"][0]]
+        assert rec["failures"][0].startswith("auto exposure: Mitsuba ")
+        assert "page4: FAIL: auto exposure" in r.stdout
+    assert "exposure test: each side's auto exposure over 8 seeds" in r.stdout
 
 
 def test_a_mismatched_model_fails(tmp_path):
@@ -67,6 +101,8 @@ def test_a_mismatched_model_fails(tmp_path):
     ([SCENES / "page1.txt", "--exposure", "2"], "page 1 has no exposure"),
     ([SCENES / "page2.txt", "--rect", "0,0,640,10"], "calibration strip"),
     ([SCENES / "page4.txt", "--spp", "1"], "needs --spp >= 2"),
+    ([SCENES / "page4.txt", "--exposure-seeds", "1"], "--exposure-seeds: must be >= 2"),
+    ([SCENES / "page4.txt", "--exposure-alpha", "0"], "--exposure-alpha: must be in (0, 1)"),
 ])
 def test_bad_input_is_one_line_exit_2(tmp_path, args, message):
     r = run_cli("compare", *args, "-o", tmp_path)

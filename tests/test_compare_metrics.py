@@ -137,3 +137,47 @@ def test_flip_evaluator_itself_exits_on_a_missing_path():
 def test_flip_guard_refuses_bad_inputs_and_the_process_lives(test, message):
     with pytest.raises(metrics.FlipInputError, match=message):
         metrics.flip(np.zeros((8, 8, 3)), test)
+
+
+def test_exposure_test_is_welchs_t_test():
+    """t, df and p equal scipy's Welch test (ttest_ind, equal_var=False), an implementation
+    outside ours; the verdict is p >= alpha."""
+    from scipy.stats import ttest_ind
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(2.13, 0.016, 8), rng.normal(2.10, 0.03, 8)
+    e = metrics.exposure_test(a, b, alpha=1e-3)
+    ref = ttest_ind(a, b, equal_var=False)
+    assert e.method == "welch" and e.n == (8, 8)
+    assert e.t == pytest.approx(ref.statistic, rel=1e-12)
+    assert e.p == pytest.approx(ref.pvalue, rel=1e-9)
+    assert e.df == pytest.approx(ref.df, rel=1e-12)
+    assert e.passed == (ref.pvalue >= 1e-3)
+    assert e.rel_diff == pytest.approx((a.mean() - b.mean()) / b.mean())
+
+
+def test_exposure_test_level_and_power():
+    """Over 4000 pairs of 8 + 8 normal estimates with equal means (sd 0.016 and 0.02) the test
+    rejects at about its level (0.05 here, for a measurable rate); a 3 % shift of the mean
+    (the probe mix-up it must catch was 6 %) is rejected nearly always at the default level
+    0.001 (sd 0.016 as the original's E over seeds; a 2 % shift: about 83 %)."""
+    rng = np.random.default_rng(11)
+    rejected = sum(not metrics.exposure_test(rng.normal(2.13, 0.016, 8),
+                                             rng.normal(2.13, 0.02, 8), alpha=0.05).passed
+                   for _ in range(4000))
+    assert abs(rejected / 4000 - 0.05) < 0.012          # 3.5 sigma of a binomial rate
+    caught = sum(not metrics.exposure_test(rng.normal(2.13 * 1.03, 0.016, 8),
+                                           rng.normal(2.13, 0.016, 8)).passed
+                 for _ in range(500))
+    assert caught / 500 > 0.95
+
+
+def test_exposure_test_without_noise_uses_the_float_tolerance():
+    """A scene without randomness gives the same E for every seed: the means must agree
+    within rtol |E| + atol (1e-3, 1e-4)."""
+    same = metrics.exposure_test([4.8181] * 8, [4.8185] * 8)
+    assert same.method == "float tolerance" and same.passed and same.t is None
+    assert not metrics.exposure_test([4.8181] * 8, [4.83] * 8).passed
+    with pytest.raises(ValueError, match=">= 2 estimates"):
+        metrics.exposure_test([1.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match="non-finite"):
+        metrics.exposure_test([1.0, np.nan], [1.0, 1.0])

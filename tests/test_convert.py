@@ -25,7 +25,7 @@ def convert(tmp_path: Path, scene: Path, name: str, *options: str) -> Path:
 
 
 def render_tutorial(xml: Path, **defines):
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
     scene, settings = tr.load(xml, **defines)
     return tr.render(scene, settings, seed=0)
 
@@ -67,7 +67,7 @@ def test_page1_bytes_match_the_port(llvm, tmp_path, tutorial_dir):
     # the rest lies between the spheres (inter-reflections)
     assert (np.abs(xs[rest] - 320) < 90).all() and (np.abs(ty[rest] - 245) < 60).all()
     # the TGA layout is the original's (the port's writer, same pixels)
-    from codermind.tutorial_image import tga_bytes
+    from codermind.tutorial.image import tga_bytes
     from codermind_ref import tga
     assert tga_bytes(port.rgb8) == tga.encode(port.rgb8_tga)
     # and the linear radiance agrees to float32 rounding on most pixels
@@ -110,7 +110,7 @@ def test_page4_without_blob_agrees_with_the_port_in_expectation(llvm, tmp_path, 
     shutil.copytree(tutorial_dir / "page4", folder)
     text = (folder / "scene.txt").read_text().replace("NumberOfBlobs = 1", "NumberOfBlobs = 0")
     (folder / "scene.txt").write_text(text)
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
     scene, settings = tr.load(convert(tmp_path, folder / "scene.txt", "p4"))
     res = tr.render(scene, settings, spp=16, seed=3, variance=True)
     port = ref.render(ref.parse_scene(folder / "scene.txt"), mode="clean", seed=3, complexity=16,
@@ -191,8 +191,8 @@ def test_probe_rays_are_the_tutorials(llvm, tmp_path, tutorial_dir):
     """The probes sensor of a converted page-4 scene gives spec 2.5's rays: from (W/2, H/2, 0)
     towards normalize((x - W/2)/PD, (y - H/2)/PD, 1) for x, y = i s, j s (past the top)."""
     import mitsuba as mi
-    from codermind import tutorial_render as tr
-    from codermind.tutorial_image import probe_film_positions, probe_positions
+    from codermind.tutorial import render as tr
+    from codermind.tutorial.image import probe_film_positions, probe_positions
     folder = tmp_path / "scene"
     shutil.copytree(tutorial_dir / "page4", folder)
     text = (folder / "scene.txt").read_text().replace("NumberOfBlobs = 1", "NumberOfBlobs = 0")
@@ -220,7 +220,7 @@ def test_page4_orthographic_mode_shows_one_texel(llvm, tmp_path, tutorial_dir):
     text = (folder / "scene.txt").read_text().replace("Perspective.Type = conic;", "")
     text = text.replace("NumberOfBlobs = 1", "NumberOfBlobs = 0")
     (folder / "scene.txt").write_text(text)
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
     scene, settings = tr.load(convert(tmp_path, folder / "scene.txt", "ortho"))
     res = tr.render(scene, settings, seed=0)
     rgb8 = res.image.rgb8[:-10]

@@ -1,4 +1,4 @@
-"""The model chooser (codermind.tutorial_model, run by `codermind convert`): depth, samples,
+"""The model chooser (codermind.tutorial.model, run by `codermind convert`): depth, samples,
 blob tessellation, overrides; and that the chosen depth keeps its error promise."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import codermind_ref as ref
-from codermind import tutorial_model as tm
+from codermind.tutorial import model as tm
 from conftest import ROOT, run_cli
 
 SCENES = ROOT / "scenes"
@@ -108,8 +108,8 @@ def test_overrides_are_baked_into_the_xml(tmp_path):
 def test_chosen_depth_keeps_the_target(llvm, tmp_path, page):
     """Weak mirrors (Reflection 0.1): the chosen depth is below 10, and its image is within
     the target of the full model's (before truncation), measured."""
-    from codermind import tutorial_render as tr
-    from codermind.tutorial_image import srgb_encode
+    from codermind.tutorial import render as tr
+    from codermind.tutorial.image import srgb_encode
     source = variant(tmp_path, SCENES / f"page{page}.txt",
                      *[("Reflection = 0.5;", "Reflection = 0.1;")])
     xml = tmp_path / "s.xml"

@@ -139,7 +139,7 @@ def test_blob_vertices_follow_the_surface_to_first_order(llvm, key, delta, field
     whose crease vertices (on its zone spheres, cut into the mesh) must also stay on
     their crease."""
     import drjit as dr
-    from codermind.shapes._blobfield import BlobField
+    from codermind.blobmesh.field import BlobField
     mi = llvm
     scene = mi.load_dict({"type": "scene", "obj": _blob_scene(mi, field)["obj"]})
     params = mi.traverse(scene)

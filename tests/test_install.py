@@ -93,7 +93,7 @@ def test_chart_quick_from_outside_the_repository(installed):
 
 def test_missing_harness_extra_is_one_line(monkeypatch, capsys):
     """Without the harness extra (matplotlib absent) the CLI says what to install."""
-    from codermind import cli
+    from codermind_cli import main as cli
 
     def needs_matplotlib(args):
         raise ModuleNotFoundError("No module named 'matplotlib'", name="matplotlib")

@@ -1,5 +1,7 @@
 """Perlin noise and the solid textures against the independent float64 reference
-(tests/perlin64.py), the float32 breakdown, and the texture plugins' interface."""
+(tests/perlin64.py), for each ``gradient`` choice (the tutorial's and Perlin's 2002
+reference, spec 2.8), the spec's measured noise values, the float32 breakdown, and the
+texture plugins' interface."""
 
 from __future__ import annotations
 
@@ -9,10 +11,14 @@ import pytest
 import perlin64
 
 
-def noise32(mi, p):
+GRADIENTS = ("tutorial", "reference")
+
+
+def noise32(mi, p, gradient="tutorial"):
     from codermind.textures import _noise
     p = np.asarray(p, dtype=np.float32)
-    return _noise.noise(mi.Float(p[0]), mi.Float(p[1]), mi.Float(p[2])).numpy().astype(np.float64)
+    value = _noise.noise(mi.Float(p[0]), mi.Float(p[1]), mi.Float(p[2]), gradient)
+    return value.numpy().astype(np.float64)
 
 
 def interaction(mi, p):
@@ -25,9 +31,50 @@ def interaction(mi, p):
 
 def test_reference_is_perlins():
     """The test's own reference reproduces the value printed by Perlin's Java reference
-    implementation, noise(3.14, 42, 7) = 0.136919958784, so its table and code are his."""
-    assert float(perlin64.noise(3.14, 42, 7)) == pytest.approx(0.13691995878400012, abs=1e-15)
+    implementation, noise(3.14, 42, 7) = 0.136919958784, so its table and code are his; the
+    spec's value of the reference gradient at (1.3, 2.7, -5.55), -0.4458, checks its grad()."""
+    for gradient in GRADIENTS:      # none of its corners hashes to 13 or 14 (spec 2.8)
+        value = float(perlin64.noise(3.14, 42, 7, gradient))
+        assert value == pytest.approx(0.13691995878400012, abs=1e-15)
+    assert float(perlin64.noise(1.3, 2.7, -5.55, "reference")) == pytest.approx(-0.4458,
+                                                                               abs=5e-5)
     assert sorted(perlin64._P[:256]) == list(range(256))
+
+
+def test_tutorial_reference_matches_the_original_program():
+    """Spec "Corrections" (measured on the original page-4 program): its noise(1.3, 2.7,
+    -5.55) is about -0.5538 and its noise(3.14, 42, 7) is 0.13691995878400012; the test's
+    double transcription of the tutorial's grad() gives both."""
+    assert float(perlin64.noise(1.3, 2.7, -5.55, "tutorial")) == pytest.approx(-0.5538,
+                                                                              abs=5e-5)
+    assert float(perlin64.noise(3.14, 42, 7, "tutorial")) == 0.13691995878400012
+
+
+def test_gradients_differ_only_for_hashes_13_and_14():
+    """Spec 2.8: the tutorial's and the reference grad() agree for every h except 13, 14."""
+    x, y, z = np.random.default_rng(3).normal(size=(3, 50))
+    for h in range(16):
+        same = np.allclose(perlin64._grad_tutorial(np.full(50, h), x, y, z),
+                           perlin64._grad_reference(np.full(50, h), x, y, z))
+        assert same == (h not in (13, 14)), h
+
+
+@pytest.mark.parametrize("gradient, expected", [("tutorial", -0.5538), ("reference", -0.4458)])
+def test_plugin_gives_the_spec_values(llvm, gradient, expected):
+    """Through the perlin texture (frequency 1, from XML-style properties): the spec's values
+    of each gradient at (1.3, 2.7, -5.55) and noise(3.14, 42, 7) = 0.13691995878400012 (both),
+    within the float32 error of the rounded positions (<= 2e-6). Default: the tutorial's."""
+    mi = llvm
+    import drjit as dr
+    spec = {"type": "perlin"} if gradient == "tutorial" else {"type": "perlin",
+                                                              "gradient": gradient}
+    texture = mi.load_dict(spec)
+    si = dr.zeros(mi.SurfaceInteraction3f, 2)
+    si.p = mi.Point3f([1.3, 3.14], [2.7, 42.0], [-5.55, 7.0])
+    a, b = texture.eval_1(si).numpy().astype(np.float64)
+    assert a == pytest.approx(expected, abs=5e-5 + 2e-6)
+    assert b == pytest.approx(0.13691995878400012, abs=2e-6)
+    assert f"gradient = {gradient}" in str(texture)
 
 
 def test_plugin_table_is_perlins_not_the_typo(llvm):
@@ -38,26 +85,34 @@ def test_plugin_table_is_perlins_not_the_typo(llvm):
     assert list(table) == perlin64._P[:256].tolist()
 
 
+@pytest.mark.parametrize("gradient", GRADIENTS)
 @pytest.mark.parametrize("scale", [1.0, 10.0, 100.0, 1e3, 1e4])
-def test_noise_matches_double_reference(llvm, scale):
-    """|noise_f32(p) - noise_f64(p)| <= 2e-6 for float32 inputs p, |p_i| <= 1e4."""
+def test_noise_matches_double_reference(llvm, scale, gradient):
+    """|noise_f32(p) - noise_f64(p)| <= 2e-6 for float32 inputs p, |p_i| <= 1e4, for each
+    gradient; and the two gradients' noises differ (by up to ~1), so the check tells them
+    apart."""
     rng = np.random.default_rng(int(scale))
     p = (rng.uniform(-1, 1, (3, 400_000)) * scale).astype(np.float32)
-    err = np.abs(noise32(llvm, p) - perlin64.noise(*p.astype(np.float64)))
+    value = noise32(llvm, p, gradient)
+    err = np.abs(value - perlin64.noise(*p.astype(np.float64), gradient))
     assert err.max() <= 2e-6
+    other = "reference" if gradient == "tutorial" else "tutorial"
+    if scale >= 10:
+        assert np.abs(value - perlin64.noise(*p.astype(np.float64), other)).max() > 0.3
 
 
-def test_noise_near_lattice_points(llvm):
+@pytest.mark.parametrize("gradient", GRADIENTS)
+def test_noise_near_lattice_points(llvm, gradient):
     """Cell boundaries, negative coordinates and the wrap at 256: just below, at and just
     above integers, where the floor and the hash change."""
     k = np.arange(-300, 300, 7, dtype=np.float64)
     offsets = np.array([-1e-3, -np.float32(2 ** -20), 0.0, 2 ** -20, 1e-3, 0.5])
     grid = (k[:, None] + offsets[None, :]).ravel()
     p = np.stack([grid, np.roll(grid, 5), np.roll(grid, 11)]).astype(np.float32)
-    err = np.abs(noise32(llvm, p) - perlin64.noise(*p.astype(np.float64)))
+    err = np.abs(noise32(llvm, p, gradient) - perlin64.noise(*p.astype(np.float64), gradient))
     assert err.max() <= 2e-6
     lattice = np.stack([k, k + 1, -k]).astype(np.float32)
-    assert (noise32(llvm, lattice) == 0).all()         # zero at every lattice point
+    assert (noise32(llvm, lattice, gradient) == 0).all()   # zero at every lattice point
 
 
 def test_float32_breakdown(llvm):
@@ -78,6 +133,7 @@ def test_float32_breakdown(llvm):
     4.2e6    0.43         8.7e-2
     ======== ============ ============
 
+    (Measured with the reference gradient; the tutorial's, checked here, behaves alike.)
     The error first exceeds 1e-2 at M of about 8e4 (noise coordinates, i.e. world
     coordinates times the frequency: 1.8e5 world units for the turbulence's finest octave,
     8e5 for the bump). The noise collapses when every coordinate is >= 2^23 = 8.4e6: float32
@@ -100,15 +156,16 @@ def test_float32_breakdown(llvm):
     assert np.std(noise32(llvm, p)) > 0.1
 
 
+@pytest.mark.parametrize("gradient", GRADIENTS)
 @pytest.mark.parametrize("kind", ["turbulence", "marble"])
-def test_turbulence_and_marble_match_reference(llvm, kind):
+def test_turbulence_and_marble_match_reference(llvm, kind, gradient):
     """Within 1e-4 of the float64 formulas of spec 2.6 for |p_i| <= 1e3 (default colours:
-    the texture returns T or m itself), in eval, eval_1 and eval_3."""
+    the texture returns T or m itself), in eval, eval_1 and eval_3, for each gradient."""
     mi = llvm
     rng = np.random.default_rng(21)
     p = (rng.uniform(-1, 1, (3, 200_000)) * 1e3).astype(np.float32)
-    reference = getattr(perlin64, kind)(p.astype(np.float64))
-    texture = mi.load_dict({"type": kind})
+    reference = getattr(perlin64, kind)(p.astype(np.float64), gradient=gradient)
+    texture = mi.load_dict({"type": kind, "gradient": gradient})
     si = interaction(mi, p)
     for values in (texture.eval_1(si).numpy()[None], texture.eval(si).numpy(),
                    texture.eval_3(si).numpy()):
@@ -150,20 +207,22 @@ def test_frequency_octaves_and_to_world(llvm):
                                perlin64.marble(p.astype(np.float64), 0.05, 2, 0.3), atol=2e-5)
 
 
-def test_means(llvm):
-    """mean(): 0 for raw noise, the measured E|noise| for turbulence (checked here against
-    the reference over the noise's period), 1/2 for marble's m."""
+@pytest.mark.parametrize("gradient", GRADIENTS)
+def test_means(llvm, gradient):
+    """mean(): 0 for raw noise, the measured E|noise| of the gradient for turbulence (checked
+    here against the reference over the noise's period), 1/2 for marble's m."""
     mi = llvm
     rng = np.random.default_rng(9)
     p = rng.uniform(0, 256, (3, 1_000_000))
-    mean_abs = np.abs(perlin64.noise(*p)).mean()       # +- 1.4e-4 (1 sigma)
+    mean_abs = np.abs(perlin64.noise(*p, gradient)).mean()       # +- 1.4e-4 (1 sigma)
     from codermind.textures import _noise
-    assert _noise.MEAN_ABS_NOISE == pytest.approx(mean_abs, abs=6e-4)
-    assert mi.load_dict({"type": "perlin"}).mean() == 0
+    assert _noise.MEAN_ABS_NOISE[gradient] == pytest.approx(mean_abs, abs=6e-4)
+    assert mi.load_dict({"type": "perlin", "gradient": gradient}).mean() == 0
     harmonic = sum(1 / k for k in range(1, 10))
     c0, c1 = 0.8, 0.2
-    turb = mi.load_dict({"type": "turbulence", "color0": c0, "color1": c1})
-    m = _noise.MEAN_ABS_NOISE * harmonic
+    turb = mi.load_dict({"type": "turbulence", "color0": c0, "color1": c1,
+                         "gradient": gradient})
+    m = _noise.MEAN_ABS_NOISE[gradient] * harmonic
     assert turb.mean()[0] == pytest.approx(m * c0 + (1 - m) * c1, rel=1e-6)
     marble = mi.load_dict({"type": "marble", "color0": c0, "color1": c1})
     assert marble.mean()[0] == pytest.approx(0.5, rel=1e-6)
@@ -215,6 +274,12 @@ def test_textures_in_both_bsdfs_from_xml(llvm):
     ({"type": "perlin", "frequency": 1e39}, "perlin: 'frequency'"),
     ({"type": "marble", "color1": {"type": "rgb", "value": [0.0, float("inf"), 0.0]}},
      "marble: 'color1'"),
+    ({"type": "perlin", "gradient": "perlin"},
+     "perlin: 'gradient' must be 'tutorial' or 'reference', got 'perlin'"),
+    ({"type": "turbulence", "gradient": "Tutorial"}, "turbulence: 'gradient' must be"),
+    ({"type": "marble", "gradient": 1.0}, "marble: 'gradient' must be"),
+    ({"type": "noisebump", "gradient": "improved", "inner": {"type": "diffuse"}},
+     "noisebump: 'gradient' must be 'tutorial' or 'reference'"),
 ])
 def test_bad_parameters(llvm, params, name):
     with pytest.raises(RuntimeError, match=name):
@@ -226,11 +291,13 @@ def test_scalar_variant(scalar):
     p = np.array([[123.25], [-45.5], [310.75]])
     si = mi.SurfaceInteraction3f()
     si.p = mi.Point3f(*map(float, p[:, 0]))
-    for kind, reference in (("perlin", perlin64.noise(*p)), ("turbulence", perlin64.turbulence(p)),
-                            ("marble", perlin64.marble(p))):
-        texture = mi.load_dict({"type": kind})
-        assert texture.eval_1(si) == pytest.approx(float(reference[0]), abs=1e-4)
-        assert np.allclose(np.array(texture.eval(si)), float(reference[0]), atol=1e-4)
+    for gradient in GRADIENTS:
+        for kind, reference in (("perlin", perlin64.noise(*p, gradient)),
+                                ("turbulence", perlin64.turbulence(p, gradient=gradient)),
+                                ("marble", perlin64.marble(p, gradient=gradient))):
+            texture = mi.load_dict({"type": kind, "gradient": gradient})
+            assert texture.eval_1(si) == pytest.approx(float(reference[0]), abs=1e-4)
+            assert np.allclose(np.array(texture.eval(si)), float(reference[0]), atol=1e-4)
 
 
 def test_overflowing_coordinates_give_zero_not_nan(llvm):

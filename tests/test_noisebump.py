@@ -19,10 +19,10 @@ from closed_form import (CENTER, RADIUS, fresnel, lighting, material, normalize,
 B = 0.3    # a strong bump, so that errors in the perturbation are visible
 
 
-def bump_normal(p, n, b, front=True):
+def bump_normal(p, n, b, front=True, gradient="tutorial"):
     """The tutorial's bumped facing normal: normalize((1-b) f + b N), f = n or -n."""
     f = n if front else -n
-    return normalize((1 - b) * f + b * perlin64.bump_vector(p.T).T)
+    return normalize((1 - b) * f + b * perlin64.bump_vector(p.T, gradient=gradient).T)
 
 
 def interaction(mi, dr, p, n_geo, wi_world):
@@ -70,19 +70,30 @@ def test_perturbed_normal_lambert(llvm, front):
     np.testing.assert_allclose(value, expected, atol=1e-5)
 
 
-def test_mirror_reflects_about_bumped_normal(llvm):
+@pytest.mark.parametrize("gradient", [None, "tutorial", "reference"])
+def test_mirror_reflects_about_bumped_normal(llvm, gradient):
+    """Mirror about the bumped normal, with each noise gradient (None: the default, the
+    tutorial's); the other gradient's normal is measurably different."""
     mi = llvm
     import drjit as dr
     k = 2000
     p, n, wi = random_setup(k, 3)
-    bsdf = mi.load_dict({"type": "noisebump", "bumplevel": B,
-                         "inner": material(page=2, diffuse=0.0, specular=0.0, reflection=1.0)})
+    spec = {"type": "noisebump", "bumplevel": B,
+            "inner": material(page=2, diffuse=0.0, specular=0.0, reflection=1.0)}
+    if gradient:
+        spec["gradient"] = gradient
+    bsdf = mi.load_dict(spec)
     si = interaction(mi, dr, p, n, wi)
     bs, weight = bsdf.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.5, 0.5))
     wo = si.sh_frame.to_world(bs.wo).numpy().T
-    f = bump_normal(p, n, B)
-    expected = 2 * np.sum(wi * f, axis=1, keepdims=True) * f - wi
-    np.testing.assert_allclose(wo, expected, atol=2e-5)
+    gradient = gradient or "tutorial"
+    for g in ("tutorial", "reference"):
+        f = bump_normal(p, n, B, gradient=g)
+        expected = 2 * np.sum(wi * f, axis=1, keepdims=True) * f - wi
+        if g == gradient:
+            np.testing.assert_allclose(wo, expected, atol=2e-5)
+        else:
+            assert np.abs(wo - expected).max() > 0.05
     assert (weight.numpy() == 1).all()
 
 
@@ -107,7 +118,10 @@ def test_refraction_from_inside_uses_flipped_then_bumped_normal(llvm):
     refr = (weight.numpy()[0] > 0) & (r < 1)
     assert refr.mean() > 0.5
     expected = normalize((1.3 * (d + cos_i[:, None] * f) - cos_t[:, None] * f))
-    np.testing.assert_allclose(wo[refr], expected[refr], atol=5e-5)
+    # float32 errors of the normal (~1e-6) grow as 1/cos_t in the refracted direction: with
+    # the tutorial's noise one of these samples refracts at cos_t = 0.013 (error 5.8e-5)
+    err = np.abs(wo - expected).max(axis=1)
+    assert (err[refr] <= 1e-5 + 3e-6 / cos_t[refr]).all()
     assert (bs.sampled_component.numpy()[refr] == 3).all()
 
 

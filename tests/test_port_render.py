@@ -162,29 +162,34 @@ def _blob_scene(tmp_path, centers):
 def test_blob_lone_source_surface_is_radius_R(tmp_path):
     # two sources far away (f = 0 beyond 10 R^2): the surface is f(x) = 1, x = 1, exactly at R;
     # this is the case where the zone bound is exactly 1
+    # (clean: the exact zone method in float64; strict sums the polynomial in float32 as the
+    # original, whose C ~ |c - o|^2 / R^2 ~ 40 rounds by ~4e-6, i.e. ~2e-4 in t at this slope)
     world = World(_blob_scene(tmp_path, ["0, 0, 500", "5000, 0, 0", "0, 5000, 0"]))
     o, d = np.array([[0.0], [0.0], [0.0]]), np.array([[0.0], [0.0], [1.0]])
-    t, obj = world.intersect(o, d, np.array([2000.0]))
+    t, obj = world.intersect(o, d, np.array([2000.0]), ref.CLEAN)
     assert obj[0] == 0 and t[0] == pytest.approx(420.0, abs=1e-9)
+    t32, obj32 = world.intersect(o, d, np.array([2000.0]), ref.STRICT)
+    assert obj32[0] == 0 and t32[0] == pytest.approx(420.0, abs=1e-3)
     n, zero = world.normal(o + t * d, obj)
     assert np.allclose(n[:, 0], [0, 0, -1], atol=1e-5) and not zero[0]  # far sources tilt it
 
 
 def test_blob_coincident_sources_surface(tmp_path):
+    # (clean: exact arithmetic; see the lone-source test for strict's float32 sums)
     # three sources at one point: 3 f(x) = 1 in zone 2 (f = -0.12 x + 0.7): x = (0.7 - 1/3)/0.12
     world = World(_blob_scene(tmp_path, ["0, 0, 500"] * 3))
     x = (0.7 - 1 / 3) / 0.12
     o = np.array([[0.0, 30.0], [0.0, 0.0], [0.0, 0.0]])
     d = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 1.0]])
-    t, obj = world.intersect(o, d, np.full(2, 2000.0))
+    t, obj = world.intersect(o, d, np.full(2, 2000.0), ref.CLEAN)
     assert t[0] == pytest.approx(500 - 80 * math.sqrt(x), abs=1e-9)
     assert t[1] == pytest.approx(500 - math.sqrt(80 ** 2 * x - 30 ** 2), abs=1e-9)
     # a ray starting inside finds the exit, a shadow ray shorter than that finds nothing
     inside = np.array([[0.0], [0.0], [480.0]])
-    assert world.intersect(inside, d[:, :1], np.array([2000.0]))[0][0] == pytest.approx(
+    assert world.intersect(inside, d[:, :1], np.array([2000.0]), ref.CLEAN)[0][0] == pytest.approx(
         20 + 80 * math.sqrt(x), abs=1e-9)
-    assert not world.occluded(inside, d[:, :1], np.array([100.0]))[0]
-    assert world.occluded(inside, d[:, :1], np.array([200.0]))[0]
+    assert not world.occluded(inside, d[:, :1], np.array([100.0]), ref.CLEAN)[0]
+    assert world.occluded(inside, d[:, :1], np.array([200.0]), ref.CLEAN)[0]
 
 
 def test_cubemap_faces_and_texel_fetch(tmp_path):

@@ -5,7 +5,7 @@ parameters always fail with an error that names the parameter.
 
 Each example builds its plugin with ``mi.load_dict`` and compiles its kernels (parameters are
 literals in them), about 0.1-0.3 s, so CI runs a few examples per property (``ci`` profile,
-derandomized); ``HYPOTHESIS_PROFILE=long`` runs many more (README, "Property and fuzz tests").
+derandomized); ``HYPOTHESIS_PROFILE=long`` runs many more (docs/harness.md, "Property and fuzz tests").
 """
 
 from __future__ import annotations

@@ -53,8 +53,8 @@ def test_plugin_error_names_the_parameter(llvm):
 def test_helpers_without_mitsuba_keep_their_identity_across_switches():
     import mitsuba as mi
     import codermind  # noqa: F401
-    from codermind.shapes import _blobmesh
-    error_type = _blobmesh.BlobMeshError
+    from codermind import blobmesh
+    error_type = blobmesh.BlobMeshError
     mi.set_variant("scalar_rgb")
     mi.set_variant("llvm_ad_rgb")
-    assert _blobmesh.BlobMeshError is error_type
+    assert blobmesh.BlobMeshError is error_type

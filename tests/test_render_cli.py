@@ -159,7 +159,7 @@ def test_scalar_variant_renders(tmp_path):
 def test_ctrl_c_writes_the_finished_passes_and_no_temp_files(tmp_path):
     scene = write_scene(tmp_path, width=64, height=48)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "codermind", "render", str(scene), "-o", str(tmp_path / "part"),
+        [sys.executable, "-m", "codermind_cli", "render", str(scene), "-o", str(tmp_path / "part"),
          "--spp", "4096", "--pass-spp", "1"],
         stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     deadline = time.time() + 120

@@ -21,8 +21,9 @@ def has_blob() -> bool:
 
 @pytest.mark.parametrize("name", TUTORIAL)
 def test_committed_xml_is_the_converter_output(name):
-    from codermind.tutorial_convert import convert_scene, parse
-    from codermind.commands.convert import _command_line
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
+    from codermind_cli.commands.convert import _command_line
     import argparse
     source, xml = SCENES / f"{name}.txt", SCENES / f"{name}.xml"
     args = argparse.Namespace(target=None, max_depth=None, spp=None, blob_max_error=None,
@@ -34,7 +35,7 @@ def test_committed_xml_is_the_converter_output(name):
 
 @pytest.mark.parametrize("name", TUTORIAL)
 def test_tutorial_scene_renders(llvm, name):
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
     if name == "page4" and not has_blob():
         pytest.skip("the blob plugin is not merged yet")
     defines = {"spp": 1}

@@ -52,7 +52,7 @@ def fake_sweeps(monkeypatch):
 
 
 def test_crash_and_failed_check_give_exit_1(fake_sweeps, tmp_path, capsys):
-    from codermind.cli import main
+    from codermind_cli.main import main
     assert main(["stability", "--only", "boom", "fails", "-o", str(tmp_path)]) == 1
     records = {r["name"]: r for r in json.loads((tmp_path / "stability.json").read_text())}
     assert not records["boom"]["passed"]

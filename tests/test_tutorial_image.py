@@ -1,4 +1,4 @@
-"""The tutorial's image pipeline on the Mitsuba side (codermind.tutorial_image): spec 2.1,
+"""The tutorial's image pipeline on the Mitsuba side (codermind.tutorial.image): spec 2.1,
 2.2 and 2.5 formulas, byte rules, the strip, the 2x2 mean after tone mapping, the comment
 block; and agreement with the port's independent tonemap module."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from codermind.tutorial_image import (ToneBlockError, ToneSettings, average_blocks,
+from codermind.tutorial.image import (ToneBlockError, ToneSettings, average_blocks,
                                       calibration_strip, exposure_from_luminance, format_block,
                                       luminance, parse_block, probe_film_positions,
                                       probe_positions, srgb_encode, tga_bytes, to_bytes,

@@ -1,8 +1,16 @@
-"""Typed reading of plugin parameters, shared by the plugins: every error is a ValueError
-whose message starts with ``<plugin>: '<parameter>'``, so that Mitsuba's one-line error
-names the parameter whatever the user passed (a string or a boolean for a number, ...)."""
+"""Typed reading of plugin parameters, the one home of the parameter readers of every plugin:
+each error is a ValueError whose message starts with ``<plugin>: '<parameter>'``, so that
+Mitsuba's one-line error names the parameter whatever the user passed (a string or a boolean
+for a number, ...). Nothing here is variant-specific: ``mi.*`` types are looked up at call
+time, in the variant that is active."""
 
 from __future__ import annotations
+
+import math
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
 
 #: Largest finite float32 and smallest normal one: the plugins compute in float32, so a
 #: parameter beyond (or a positive one below) these would become inf (or 0) in their kernels.
@@ -28,3 +36,158 @@ def flag(props, plugin: str, name: str, default: bool) -> bool:
     if not isinstance(value, bool):
         raise ValueError(f"{plugin}: '{name}' must be a boolean (true or false), got {value!r}")
     return value
+
+
+def loose_number(props: mi.Properties, plugin: str, name: str, default=None):
+    """What ``float()`` reads (a number, or a string or boolean that reads as one);
+    ``default`` when absent. The ``blob`` shape's reader, looser than :func:`number`."""
+    if name not in props:
+        return default
+    try:
+        return float(props.get(name))
+    except (TypeError, ValueError):
+        raise ValueError(f"{plugin}: '{name}' must be a number") from None
+
+
+# -- bounded numbers, textures, colours (BSDFs, textures) ------------------------------------
+
+def read_float(props: mi.Properties, plugin: str, name: str, default: float,
+               lo: float | None = None, hi: float | None = None) -> float:
+    """A float in [lo, hi], finite in float32 (either bound optional)."""
+    value = number(props, plugin, name, default)
+    if not math.isfinite(value) or (lo is not None and value < lo) or \
+            (hi is not None and value > hi):
+        bounds = (f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}") \
+            if lo is not None else f"<= {hi:g}"
+        raise ValueError(f"{plugin}: '{name}' must be finite and {bounds}, got {value:g}")
+    if abs(value) > FLOAT32_MAX:
+        raise ValueError(f"{plugin}: '{name}' must be finite in float32 (at most "
+                         f"{FLOAT32_MAX:.4g}), got {value:g}")
+    return value
+
+
+def uniform_rgb(texture: mi.Texture) -> list[float] | None:
+    """The RGB value of a texture that does not vary over space, else None."""
+    if texture.is_spatially_varying():
+        return None
+    si = mi.SurfaceInteraction3f() if not dr.is_jit_v(mi.Float) else \
+        dr.zeros(mi.SurfaceInteraction3f)
+    try:
+        value = texture.eval_3(si)
+    except Exception:  # a texture without eval_3: nothing to check
+        return None
+    return [float(dr.slice(c)) if dr.is_jit_v(mi.Float) else float(c) for c in value]
+
+
+def read_texture(props: mi.Properties, plugin: str, name: str, default: float,
+                 unbounded: bool = False) -> mi.Texture:
+    """A texture parameter; a uniform one must be finite and >= 0 in every channel. ``unbounded``
+    accepts RGB values above 1 (Mitsuba rejects them for reflectances otherwise)."""
+    try:
+        texture = props.get_unbounded_texture(name, default) if unbounded else \
+            props.get_texture(name, default)
+    except RuntimeError as e:       # e.g. Mitsuba's "Invalid RGB reflectance value ..."
+        lines = str(e).strip().splitlines()
+        raise ValueError(f"{plugin}: '{name}': {lines[-1] if lines else e}") from None
+    value = uniform_rgb(texture)
+    if value is not None and not all(math.isfinite(v) and v >= 0 for v in value):
+        raise ValueError(f"{plugin}: '{name}' must be finite and >= 0 in every channel, "
+                         f"got {value}")
+    return texture
+
+
+def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
+    value = number(props, plugin, name, default)
+    if not 0 < value <= FLOAT32_MAX:
+        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0 (in float32), got "
+                         f"{value:g}")
+    return value
+
+
+def finite_color(props: mi.Properties, plugin: str, name: str, default: float) -> mi.Texture:
+    """An unbounded colour texture; a uniform one must be finite in every channel."""
+    texture = props.get_unbounded_texture(name, default)
+    value = uniform_rgb(texture)
+    if value is not None and not all(math.isfinite(v) for v in value):
+        raise ValueError(f"{plugin}: '{name}' must be finite, got {value}")
+    return texture
+
+
+def octave_count(props: mi.Properties, plugin: str, default: int = 9) -> int:
+    value = props.get("octaves", default)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 64:
+        raise ValueError(f"{plugin}: 'octaves' must be an integer in [1, 64], got {value!r}")
+    return value
+
+
+# -- clip distances, pixel offset, field of view, placement (sensors) -------------------------
+
+def read_clip(props: mi.Properties, plugin: str) -> tuple[float, float]:
+    """``near_clip`` and ``far_clip`` (defaults 0.01, 10000): 0 <= near < far, near finite
+    in float32 (far may be infinite)."""
+    near, far = number(props, plugin, "near_clip", 1e-2), number(props, plugin, "far_clip", 1e4)
+    if not near <= FLOAT32_MAX:
+        raise ValueError(f"{plugin}: 'near_clip' must be finite in float32, got {near:g}")
+    if not 0.0 <= near < far:
+        raise ValueError(f"{plugin}: need 0 <= 'near_clip' < 'far_clip', got {near:g} and "
+                         f"{far:g}")
+    return near, far
+
+
+def read_pixel_offset(props: mi.Properties, plugin: str) -> tuple[float, float] | None:
+    """``pixel_offset_x``/``pixel_offset_y``: a fixed position inside each film pixel, in
+    pixels from its top-left corner (x right, y down, as film rows), or None (jitter)."""
+    given = [k for k in ("pixel_offset_x", "pixel_offset_y") if k in props]
+    if not given:
+        return None
+    if len(given) == 1:
+        raise ValueError(f"{plugin}: give both 'pixel_offset_x' and 'pixel_offset_y' "
+                         f"(only '{given[0]}' was given)")
+    offset = (number(props, plugin, "pixel_offset_x"), number(props, plugin, "pixel_offset_y"))
+    for name, value in zip(("pixel_offset_x", "pixel_offset_y"), offset):
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"{plugin}: '{name}' must be in [0, 1] (pixels), got {value:g}")
+    return offset
+
+
+def x_fov(props: mi.Properties, aspect: float, plugin: str) -> float:
+    """Horizontal field of view in degrees from ``fov``/``fov_axis`` or ``focal_length``,
+    with Mitsuba's conventions (``aspect`` = width / height)."""
+    if "fov" in props and "focal_length" in props:
+        raise ValueError(f"{plugin}: give either 'fov' or 'focal_length', not both")
+    if "fov" in props:
+        fov = number(props, plugin, "fov")
+        axis = str(props.get("fov_axis", "x")).lower()
+        if not 0.0 < fov < 180.0:
+            raise ValueError(f"{plugin}: 'fov' must be in (0, 180) degrees, got {fov:g}")
+        if axis == "smaller":
+            axis = "y" if aspect > 1 else "x"
+        elif axis == "larger":
+            axis = "x" if aspect > 1 else "y"
+    else:
+        text = str(props.get("focal_length", "50mm"))
+        try:
+            length = float(text[:-2] if text.endswith("mm") else text)
+        except ValueError:
+            raise ValueError(f"{plugin}: 'focal_length' must look like '50mm', got "
+                             f"{text!r}") from None
+        if not length > 0:
+            raise ValueError(f"{plugin}: 'focal_length' must be > 0, got {text!r}")
+        fov = 2.0 * math.degrees(math.atan(math.hypot(36.0, 24.0) / (2.0 * length)))
+        axis = "diagonal"
+    half_tan = math.tan(math.radians(0.5 * fov))
+    if axis == "x":
+        return fov
+    if axis == "y":
+        return 2.0 * math.degrees(math.atan(half_tan * aspect))
+    if axis == "diagonal":
+        return 2.0 * math.degrees(math.atan(half_tan / math.sqrt(1.0 + 1.0 / aspect**2)))
+    raise ValueError(f"{plugin}: 'fov_axis' must be one of x, y, diagonal, smaller, larger; "
+                     f"got {axis!r}")
+
+
+def to_world_matrix(props: mi.Properties) -> np.ndarray:
+    """The scalar 4x4 matrix of ``to_world`` (identity if absent)."""
+    if "to_world" not in props:
+        return np.eye(4)
+    return np.array(props.get("to_world").matrix, dtype=np.float64).reshape(4, 4)

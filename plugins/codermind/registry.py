@@ -47,11 +47,10 @@ def _load(name: str) -> None:
     module = sys.modules.get(name)
     if module is None:
         importlib.import_module(name)
-    elif any(value is mi for value in vars(module).values()):
+    else:
+        # Helpers here use variant types; code without them (codermind.blobmesh) lives
+        # outside these sub-packages, so its classes keep their identity across switches.
         importlib.reload(module)
-    # A module that does not import mitsuba (e.g. the numpy-only blob mesher) has nothing
-    # variant-specific; reloading it would only give its classes (exception types
-    # included) a new identity.
 
 
 def _on_variant_change(old: str | None, new: str | None) -> None:

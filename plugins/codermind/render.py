@@ -16,8 +16,13 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-#: Samples in flight per pass (pixels x spp): bounds memory and sets progress granularity.
-LANE_BUDGET = 1 << 23
+#: Samples in flight per pass (pixels x spp), for plain and tutorial renders alike. Memory
+#: does not grow with it (Mitsuba's megakernel derives each sample from its index), and
+#: larger passes pay the fixed cost of a pass less often: on page 4 a pass of 1 << 25 lanes
+#: costs less CPU per sample than one of 1 << 23 and about as much as one of 1 << 26
+#: (``benchmarks/bench_page4_c256.py --breakdown``, pass size). It also sets how often
+#: progress is shown and Ctrl-C is polled.
+LANE_BUDGET = 1 << 25
 
 
 def pass_plan(spp: int, pixels: int, pass_spp: int | None = None) -> list[int]:
@@ -85,38 +90,68 @@ def scene_spp(scene: mi.Scene, sensor: int = 0) -> int:
     return int(scene.sensors()[sensor].sampler().sample_count())
 
 
+def accumulate(scenes: list[mi.Scene], sensor: mi.Sensor | int, plan: list[int], seed: int,
+               rgb: bool = False, variance: bool = False, progress: Progress | None = None,
+               should_stop: Callable[[], bool] = lambda: False):
+    """Render the passes of ``plan`` (samples per pixel of each, pass i with seed
+    ``pass_seed(seed, i)``) and return their sample-weighted mean: the film of ``sensor``
+    summed over ``scenes`` (rendered with the same seeds), every channel (``rgb``: the first
+    three). With ``variance``, also the variance of that mean from the pass means
+    (s^2 = sum n_i (m_i - m)^2 / (k - 1) over k passes, divided by the sample count).
+
+    ``should_stop`` is polled before every pass. Returns (mean float32 or None when no pass
+    finished, variance float32 or None, samples per pixel done, seconds of each pass)."""
+    total = None
+    means, counts, times = [], [], []
+    done = 0
+    for i, n in enumerate(plan):
+        if should_stop():
+            break
+        t = time.perf_counter()
+        arr = 0.0
+        for sc in scenes:
+            img = np.array(mi.render(sc, sensor=sensor, spp=n, seed=pass_seed(seed, i)),
+                           dtype=np.float64)
+            arr = arr + (img[..., :3] if rgb else img)
+        dr.sync_thread()
+        times.append(time.perf_counter() - t)
+        total = arr * n if total is None else total + arr * n
+        if variance:
+            means.append(arr)
+            counts.append(n)
+        done += n
+        if progress:
+            progress.update(done, i + 1, len(plan))
+    if progress and done < sum(plan):
+        progress.finish_early()
+    if done == 0:
+        return None, None, 0, times
+    mean = total / done
+    var = None
+    if variance:
+        if len(means) > 1:
+            s2 = sum(c * np.square(m - mean) for m, c in zip(means, counts)) / (len(means) - 1)
+            var = (s2 / done).astype(np.float32)
+        else:
+            var = np.full(mean.shape, np.nan if done > 1 else 0.0, dtype=np.float32)
+    return mean.astype(np.float32), var, done, times
+
+
 def render_passes(scene: mi.Scene, spp: int | None = None, seed: int = 0, sensor: int = 0,
                   pass_spp: int | None = None, progress: Progress | None = None,
                   should_stop: Callable[[], bool] = lambda: False) -> RenderResult:
     """Render ``spp`` samples per pixel in passes and return their mean.
 
-    ``should_stop`` is polled after every pass; when it returns True the passes
+    ``should_stop`` is polled before every pass; when it returns True the passes
     finished so far are returned (``result.interrupted`` is then True).
     """
     spp = spp or scene_spp(scene, sensor)
     film = scene.sensors()[sensor].film()
     size = film.crop_size()
     plan = pass_plan(spp, int(size[0]) * int(size[1]), pass_spp)
-    acc = None
-    done = 0
-    names: list[str] = []
     t0 = time.perf_counter()
-    times = []
-    for i, n in enumerate(plan):
-        if should_stop():
-            break
-        t = time.perf_counter()
-        img = mi.render(scene, sensor=sensor, spp=n, seed=pass_seed(seed, i))
-        arr = np.array(img, dtype=np.float64)
-        dr.sync_thread()
-        times.append(time.perf_counter() - t)
-        acc = arr * n if acc is None else acc + arr * n
-        done += n
-        if not names:
-            names = [f.name for f in film.bitmap().struct_()]
-        if progress:
-            progress.update(done, i + 1, len(plan))
-    if progress and done < spp:
-        progress.finish_early()
-    image = (acc / done).astype(np.float32) if done else np.zeros((0, 0, 0), np.float32)
+    mean, _, done, times = accumulate([scene], sensor, plan, seed, progress=progress,
+                                      should_stop=should_stop)
+    names = [f.name for f in film.bitmap().struct_()] if done else []
+    image = mean if done else np.zeros((0, 0, 0), np.float32)
     return RenderResult(image, names, done, spp, time.perf_counter() - t0, times)

@@ -31,10 +31,8 @@ cached by Dr.Jit across runs, is not counted); port points are the render.
 
 from __future__ import annotations
 
-import math
 import os
 import statistics
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -42,155 +40,15 @@ from typing import Callable
 
 import numpy as np
 
+from codermind.variants import set_variant
+
+from . import chart_cost, chart_report
+from .chart_data import (FULL, PORT_SEED, QUICK, REF_SEED, SCENES, SWEEP_SEED, THRESHOLD,
+                         Config, Point, log, pareto_front, scenes_dir)
 from .sides import Grid, HarnessError, encode_mitsuba, load_mitsuba, parse, port_exposure, twin_of
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def scenes_dir() -> Path:
-    """The bundled scenes: the repository's scenes/ or the installed copy (codermind.bundled)."""
-    from codermind.bundled import scenes_dir as find
-    return find()
-SCENES = ("page1", "page2", "page3", "page4", "garden")
-#: Value used to draw an error of exactly 0 on a log axis (the reference itself).
-ZERO_FLOOR = 1e-10
-REF_SEED, SWEEP_SEED, PORT_SEED = 1000, 1, 0
-THRESHOLD = 1e-3
-
-
-@dataclass(frozen=True)
-class Config:
-    """What a run renders (``full`` or ``quick``)."""
-    name: str
-    crops: dict            #: scene -> rect (x0, y0, x1, y1) tutorial pixels, y up; None: all
-    spp: tuple             #: Mitsuba spp sweep of a random scene
-    det_spp: tuple         #: spp sweep of a deterministic scene (cost only)
-    complexity: tuple      #: port Complexity sweep of a random scene
-    max_error: tuple       #: blob max_error sweep (page 4)
-    ref_spp: int
-    scalar_rect: tuple
-    scalar_spp: tuple
-    garden_size: tuple = (160, 120)
-    repeats: int = 3
-    cheap_s: float = 30.0     #: points slower than this (first run) are run once
-    strides: tuple = (16, 8, 4, 2, 1)     #: cost vs pixels: 1/s of the resolution
-    sources: tuple = (1, 2, 4, 8, 16)
-    maximal_spp: int = 64
-    ref_max_error: float | None = 0.02     #: the reference's blob (None: the chooser's)
-    maximal_divisor: float = 4.0           #: the maximal model's blob max_error divisor
-
-
-FULL = Config(
-    "full", crops={"page4": (272, 220, 368, 292)},
-    spp=(1, 2, 4, 8, 16, 32, 64), det_spp=(1, 4, 16, 64), complexity=(1, 2, 4, 8, 16, 32),
-    max_error=(0.6, 0.3, 0.15, 0.0865, 0.04), ref_spp=1024,
-    scalar_rect=(300, 240, 316, 252), scalar_spp=(1, 2, 4))
-QUICK = Config(
-    "quick", crops={s: (300, 240, 316, 252) for s in SCENES},
-    spp=(1, 2, 4), det_spp=(1, 2), complexity=(1, 2), max_error=(0.6, 0.3), ref_spp=32,
-    scalar_rect=(304, 244, 308, 247), scalar_spp=(1,), repeats=1,
-    strides=(32, 16), sources=(1, 2), maximal_spp=4,
-    ref_max_error=None, maximal_divisor=1.0, garden_size=(32, 24))
-
-
-@dataclass
-class Point:
-    scene: str
-    method: str
-    param: str               #: what the series sweeps (spp, complexity, max_error, model)
-    value: float
-    spp: int
-    seconds: float           #: median wall time (load + render for Mitsuba)
-    load_seconds: float
-    runs: list = field(default_factory=list)
-    rel_mse: float = float("nan")
-    flip: float = float("nan")
-    triangles: int | None = None
-    panel: str = "main"      #: "main" (the scene's crop) or "scalar" (the scalar crop)
-    front_rel_mse: bool = False
-    front_flip: bool = False
-
-
-# -- analysis --------------------------------------------------------------------------------
-
-def pareto_front(times, errors) -> np.ndarray:
-    """Mask of the points no other point beats in both time and error (<= in both, < in
-    one). NaN errors are never on the front."""
-    t, e = np.asarray(times, float), np.asarray(errors, float)
-    ok = np.isfinite(t) & np.isfinite(e)
-    front = np.zeros(t.size, bool)
-    for i in np.flatnonzero(ok):
-        dominated = ok & (t <= t[i]) & (e <= e[i]) & ((t < t[i]) | (e < e[i]))
-        front[i] = not dominated.any()
-    return front
-
-
-def fit_slope(x, y) -> float:
-    """Least-squares slope of log y against log x (NaN with fewer than two usable points)."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    ok = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 2:
-        return float("nan")
-    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
-
-
-def fit_noise_floor(spp, errors) -> tuple[float, float]:
-    """(a, b) of error = a / spp + b, least squares in relative terms (each point weighted by
-    1 / error): a is the one-sample noise, b the floor (bias and the reference's noise)."""
-    s, e = np.asarray(spp, float), np.asarray(errors, float)
-    ok = (s > 0) & (e > 0) & np.isfinite(e)
-    if ok.sum() < 2:
-        return float("nan"), float("nan")
-    s, e = s[ok], e[ok]
-    (a, b), *_ = np.linalg.lstsq(np.stack([1 / (s * e), 1 / e], axis=1), np.ones(s.size),
-                                 rcond=None)
-    return float(a), float(b)
-
-
-def time_to_reach(times, errors, target: float) -> float | None:
-    """Wall time at which a series first reaches ``target`` error, interpolated log-log
-    between its points in order of time; None if it never does."""
-    pts = sorted((t, e) for t, e in zip(times, errors) if t > 0 and np.isfinite(e))
-    prev = None
-    for t, e in pts:
-        if e <= target:
-            if prev is None or prev[1] <= 0 or e <= 0:
-                return t
-            (t0, e0), (lt, le) = prev, (math.log(t), math.log(max(e, ZERO_FLOOR)))
-            f = (math.log(target) - math.log(e0)) / (le - math.log(e0))
-            return math.exp(math.log(t0) + f * (lt - math.log(t0)))
-        prev = (t, e)
-    return None
-
-
-def equal_error_ratio(port: list[Point], mitsuba: list[Point]) -> list[float]:
-    """t_port / t_mitsuba at the port's errors, Mitsuba's log time interpolated in log
-    error (only inside Mitsuba's range)."""
-    ms = sorted((p.rel_mse, p.seconds) for p in mitsuba if p.rel_mse > 0)
-    if len(ms) < 2:
-        return []
-    le = np.log([e for e, _ in ms])
-    lt = np.log([t for _, t in ms])
-    out = []
-    for p in port:
-        if p.rel_mse > 0 and le[0] <= math.log(p.rel_mse) <= le[-1]:
-            out.append(p.seconds / math.exp(float(np.interp(math.log(p.rel_mse), le, lt))))
-    return out
 
 
 # -- rendering -------------------------------------------------------------------------------
-
-def _log(msg: str) -> None:
-    print(f"chart: {msg}", file=sys.stderr, flush=True)
-
-
-def _set_variant(variant: str):
-    import mitsuba as mi
-    if mi.variant() != variant:
-        mi.set_variant(variant)
-    import codermind  # noqa: F401  (registers the plugins, also after a switch)
-    return mi
-
 
 class MitsubaRunner:
     """Loaded scenes (one per crop and ``-D`` overrides); a scene is warmed up (one untimed
@@ -205,12 +63,12 @@ class MitsubaRunner:
     def get(self, rect, defines: dict, variant: str = "llvm_ad_rgb"):
         key = (tuple(rect), tuple(sorted(defines.items())), variant)
         if key not in self.cache:
-            _set_variant(variant)
+            set_variant(variant)
             grid = Grid.of(self.width, self.height, self.page, rect=rect)
             t0 = time.perf_counter()
             scene, settings = load_mitsuba(self.xml, grid, {k: str(v) for k, v in defines.items()})
             load = time.perf_counter() - t0
-            from codermind.tutorial_render import light_scenes
+            from codermind.tutorial.render import light_scenes
             scenes = light_scenes(scene) if settings.lights == "sum" else [scene]
             tris = sum(int(s.face_count()) for s in scene.shapes() if s.is_mesh()) or None
             self.cache[key] = (grid, scenes, settings, load, tris)
@@ -219,9 +77,9 @@ class MitsubaRunner:
     def render(self, rect, defines: dict, spp: int, seed: int, variant: str = "llvm_ad_rgb",
                variance: bool = False, label: str | None = None):
         from codermind.render import Progress
-        from codermind.tutorial_render import render_linear
+        from codermind.tutorial.render import render_linear
         key, (grid, scenes, settings, load, tris) = self.get(rect, defines, variant)
-        _set_variant(variant)
+        set_variant(variant)
         if key != self.last and variant != "scalar_rgb":
             # the first render of a scene after another one pays ~1 s again (the kernel is
             # compiled or looked up again): an untimed 1-spp render, its time kept apart
@@ -275,7 +133,7 @@ def _interleave(jobs: list[Job], cfg: Config, label: str) -> None:
             job.load, job.tris = load, tris
             if job.linear is None:
                 job.linear = lin
-            _log(f"{label} round {rnd + 1}/{cfg.repeats} [{k + 1}/{len(todo)}] {job.method} "
+            log(f"{label} round {rnd + 1}/{cfg.repeats} [{k + 1}/{len(todo)}] {job.method} "
                  f"{job.param}={job.value:g}: {secs:.2f} s")
 
 
@@ -296,8 +154,8 @@ def reference(runner, scene, rect, cfg: Config, det: bool):
 
 def chart_scene(name: str, cfg: Config) -> dict:
     """Every method's points on one bundled scene, with errors against the reference."""
-    from codermind.tutorial_model import choose
-    from codermind.tutorial_render import read_settings
+    from codermind.tutorial.model import choose
+    from codermind.tutorial.render import read_settings
     if name == "garden":
         return chart_garden(cfg)
     txt, xml = twin_of(scenes_dir() / f"{name}.xml")
@@ -310,9 +168,9 @@ def chart_scene(name: str, cfg: Config) -> dict:
     exposure = port_exposure(scene, PORT_SEED)
     runner = MitsubaRunner(xml, w, h, scene.page)
     chosen = _xml_defaults(xml)
-    _log(f"{name}: {'deterministic' if det else 'random'}, crop {rect}, exposure {exposure}")
+    log(f"{name}: {'deterministic' if det else 'random'}, crop {rect}, exposure {exposure}")
     ref_lin, ref_var, ref_desc, ref_s = reference(runner, scene, rect, cfg, det)
-    _log(f"{name}: reference ({ref_desc}) in {ref_s:.1f} s")
+    log(f"{name}: reference ({ref_desc}) in {ref_s:.1f} s")
 
     def mitsuba(defines, spp, r=rect, variant="llvm_ad_rgb"):
         def run():
@@ -365,10 +223,10 @@ def chart_garden(cfg: Config) -> dict:
     resolution (``-D resx/resy``), against Mitsuba at ``ref_spp`` with another seed."""
     from codermind.render import Progress
     from codermind.scene import load_scene
-    from codermind.tutorial_image import srgb_encode
-    from codermind.tutorial_render import render_linear
+    from codermind.tutorial.image import srgb_encode
+    from codermind.tutorial.render import render_linear
     from .metrics import flip, rel_mse
-    _set_variant("llvm_ad_rgb")
+    set_variant("llvm_ad_rgb")
     xml = scenes_dir() / "garden.xml"
     w, h = cfg.garden_size
     t0 = time.perf_counter()
@@ -381,7 +239,7 @@ def chart_garden(cfg: Config) -> dict:
     ref_s = time.perf_counter() - t0
     ref, ref_var = ref.astype(np.float64), ref_var.astype(np.float64)
     desc = f"Mitsuba (path, max_depth 8) {cfg.ref_spp} spp, seed {REF_SEED}"
-    _log(f"garden: {w}x{h}, reference ({desc}) in {ref_s:.1f} s")
+    log(f"garden: {w}x{h}, reference ({desc}) in {ref_s:.1f} s")
 
     def run(s):
         def go():
@@ -449,7 +307,7 @@ def _scalar_points(name, runner, cfg, ref_lin, rect, settings, exposure, det) ->
     _interleave(jobs, Config(**{**asdict(cfg), "repeats": min(cfg.repeats, 2),
                                 "cheap_s": 1e9}), f"{name} scalar")
     runner.drop("scalar_rgb")
-    _set_variant("llvm_ad_rgb")
+    set_variant("llvm_ad_rgb")
     return [_point(name, j, ref_lin, settings, exposure, r, ref_rect=rect) for j in jobs]
 
 
@@ -467,12 +325,11 @@ def _xml_defaults(xml: Path) -> dict:
 def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tuple[list, str]:
     """Chart ``only`` (default: every bundled scene), write the outputs; returns (paths,
     table)."""
-    from . import chart_cost, chart_report
     cfg = QUICK if quick else FULL
     names = list(only or SCENES)
     Path(outdir).mkdir(parents=True, exist_ok=True)      # fail before the work, not after
     before, t0 = os.getloadavg(), time.perf_counter()
-    _set_variant("llvm_ad_rgb")
+    set_variant("llvm_ad_rgb")
     results = []
     for name in names:
         res = chart_scene(name, cfg)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .chart import PORT_SEED, SWEEP_SEED, Config, _log, _set_variant, fit_slope, scenes_dir
+from .chart_data import PORT_SEED, SWEEP_SEED, Config, fit_slope, log, scenes_dir
 from .sides import parse, twin_of
 
 
@@ -39,7 +39,7 @@ def pixels(cfg: Config) -> list[dict]:
     plain render, 4 spp), the port with every s-th pixel (stride s, Complexity 1)."""
     import tempfile
     from codermind.scene import load_scene
-    from codermind.tutorial_render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, render_linear
     txt, xml = twin_of(scenes_dir() / "page4.xml")
     scene = parse(txt)
     runs: dict = {}
@@ -61,7 +61,7 @@ def pixels(cfg: Config) -> list[dict]:
                 t0 = time.perf_counter()
                 _port_stride(scene, rect, s)
                 runs.setdefault(("port", s), []).append(time.perf_counter() - t0)
-                _log(f"cost pixels round {rnd + 1}: 1/{s} resolution: mitsuba "
+                log(f"cost pixels round {rnd + 1}: 1/{s} resolution: mitsuba "
                      f"{runs[('mitsuba', s)][-1]:.2f} s, port {runs[('port', s)][-1]:.2f} s")
     rows = []
     for (m, s), t in runs.items():
@@ -101,7 +101,8 @@ def from_scene(page4: dict) -> list[dict]:
 
 
 def blob_sources(cfg: Config) -> list[dict]:
-    mi = _set_variant("llvm_ad_rgb")
+    from codermind.variants import set_variant
+    mi = set_variant("llvm_ad_rgb")
     rows = []
     for n in cfg.sources:
         builds, renders, tris = [], [], None
@@ -116,7 +117,7 @@ def blob_sources(cfg: Config) -> list[dict]:
             img = mi.render(scene, spp=16, seed=SWEEP_SEED)
             np.asarray(img)
             renders.append(time.perf_counter() - t0)
-        _log(f"cost sources {n}: {tris} triangles, build {statistics.median(builds):.2f} s, "
+        log(f"cost sources {n}: {tris} triangles, build {statistics.median(builds):.2f} s, "
              f"render {statistics.median(renders):.2f} s")
         rows.append(_row("sources", "blob build (load)", "sources", n, builds,
                          {"triangles": tris}))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .chart import (THRESHOLD, ZERO_FLOOR, Point, equal_error_ratio, fit_noise_floor,
+from .chart_data import (THRESHOLD, ZERO_FLOOR, Point, equal_error_ratio, fit_noise_floor,
                     time_to_reach)
 
 POINT_COLUMNS = ("scene", "method", "param", "value", "spp", "seconds", "load_seconds", "runs",

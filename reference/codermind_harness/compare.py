@@ -5,14 +5,20 @@ For each scene (:func:`compare_scene`):
 
 1. the twin: a ``.txt`` is converted (full model) into the output folder; an ``.xml`` is used
    as it is, against the tutorial scene its header names (:func:`sides.twin_of`);
-2. the exposure: given, or the port's auto exposure for the seed (page 4), applied to both;
+2. the exposure of the images: given, or the port's auto exposure for the seed (page 4),
+   applied to both, so that the image tests compare radiance, not exposures;
 3. both renders at the same sub-sample positions with ``spp`` = Complexity samples each
    (:mod:`codermind_harness.sides`): Mitsuba with ``path``, the port in clean mode;
 4. the z-test on linear radiance (:func:`metrics.z_test`), FLIP on the displayed images
    (sRGB before 8 bits, each side's own pipeline, the calibration strip left out), relative
    MSE of Mitsuba against the port, and ``rel_mse_noise``, the relative MSE that the two
    sides' variances alone explain (mean of (var_a + var_b) / (ref^2 + 0.01));
-5. the verdict against :class:`Thresholds`, a heat-map PNG, a JSON record.
+5. page 4, the exposure test: each side's own auto exposure (its probe grid, its random
+   numbers) for ``exposure_seeds`` seeds (seed, seed + 1, ...), compared by Welch's t-test
+   (:func:`metrics.exposure_test`, level ``Thresholds.exposure_alpha``), whatever exposure
+   the images use;
+6. the verdict against :class:`Thresholds` (every test must pass), a heat-map PNG, a JSON
+   record.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ class Thresholds:
     alpha: float = metrics.ALPHA
     rtol: float = metrics.RTOL
     atol: float = metrics.ATOL
+    exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
 
 
 @dataclass
@@ -55,6 +62,7 @@ class Options:
     progress: bool = True
     workers: int | None = None
     noise_floor: bool = False     #: also render the port with seed + 1 (FLIP of noise alone)
+    exposure_seeds: int = 8       #: page 4: auto exposures per side for the exposure test
 
 
 def log(message: str) -> None:
@@ -105,6 +113,9 @@ def prepare(path: str | os.PathLike, opt: Options) -> Case:
                            "their variance from their samples)")
     if opt.exposure is not None and scene.page == 1:
         raise HarnessError(f"{txt}: page 1 has no exposure")
+    if opt.exposure_seeds < 2:
+        raise HarnessError(f"--exposure-seeds: must be >= 2 (the test estimates each side's "
+                           f"spread), got {opt.exposure_seeds}")
     grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
     strip_free_rows(grid, scene.page)
     return Case(Path(path), txt, xml, scene, grid, random, spp)
@@ -131,17 +142,26 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
             defines.update({f"blob{i}_max_error": str(opt.blob_max_error)
                             for i in range(len(scene.blobs))})
     defines["spp"] = str(spp)
+    seeds = [opt.seed + k for k in range(opt.exposure_seeds)] if scene.page == 4 else []
+    t0 = time.perf_counter()
+    port_es = sides.port_exposures(scene, seeds, opt.port_mode)
+    port_probe_seconds = time.perf_counter() - t0
     exposure = opt.exposure
     if exposure is None:
-        exposure = sides.port_exposure(scene, opt.seed, opt.port_mode)
+        exposure = port_es[0] if port_es else sides.port_exposure(scene, opt.seed,
+                                                                  opt.port_mode)
     log(f"{txt.name}: page {scene.page}, {grid.pixels} pixels, {spp} spp, seed {opt.seed}"
         + ("" if exposure is None else f", exposure {exposure:.6g}"))
 
     port = sides.render_port(scene, grid, spp, opt.seed, exposure, opt.port_mode, random,
                              opt.workers, opt.progress)
     mits = sides.render_mitsuba(xml, grid, spp, opt.seed, exposure, defines,
-                                progress=opt.progress)
+                                progress=opt.progress, exposure_seeds=seeds)
     th = opt.thresholds
+    etest = None
+    if seeds:
+        etest = metrics.exposure_test(mits.probe_exposures, port_es, th.exposure_alpha,
+                                      th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
                        th.rtol, th.atol)
     rows = strip_free_rows(grid, scene.page)
@@ -165,6 +185,8 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
     if flip_mean > th.flip:
         failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+    if etest is not None and not etest.passed:
+        failures.append(exposure_failure(etest))
     heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
                   f"{label}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
@@ -186,13 +208,26 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
         "rel_mse": rel,
         "rel_mse_noise": rel_noise,
-        "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip},
+        "exposure_test": None if etest is None else {
+            "seeds": seeds, "mitsuba": mits.probe_exposures, "port": port_es,
+            **asdict(etest)},
+        "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
+                       "exposure_alpha": th.exposure_alpha},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
-                    "mitsuba_load": mits.load_seconds},
+                    "mitsuba_load": mits.load_seconds,
+                    "port_probes": port_probe_seconds, "mitsuba_probes": mits.probe_seconds},
         "heatmap": str(heatmap),
     }
     return record
+
+
+def exposure_failure(e: metrics.ExposureTest) -> str:
+    where = (f"Welch t = {e.t:.2f} (df {e.df:.1f}), p = {e.p:.2g} < {e.alpha}"
+             if e.method == "welch" else "outside the float tolerance (neither side varies)")
+    return (f"auto exposure: Mitsuba {e.mean[0]:.4f} (sd {e.sd[0]:.4f}) vs port "
+            f"{e.mean[1]:.4f} (sd {e.sd[1]:.4f}) over {e.n[0]} seeds each, "
+            f"{100 * e.rel_diff:+.2f} %: {where}")
 
 
 def strip_free_rows(grid: Grid, page: int) -> slice:
@@ -246,19 +281,43 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
 
 
 def format_table(records: list[dict]) -> str:
-    """A fixed-width table, one row per scene."""
+    """Fixed-width tables: the image tests, one row per scene (``E test``: the exposure
+    test's verdict), then the exposure test, one row per page-4 scene."""
     head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
-            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "port s", "mitsuba s", "verdict")
+            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "E test", "port s", "mitsuba s",
+            "verdict")
     rows = []
     for r in records:
         z = r["z_test"]
+        e = r.get("exposure_test")
         rows.append((r["label"], str(r["page"]), str(r["pixels"]), str(r["spp"]),
                      "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
                      _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
                      _num(r["flip_noise"], ".5f"), f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
+                     "-" if e is None else "pass" if e["passed"] else "FAIL",
                      f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
                      "pass" if r["passed"] else "FAIL"))
+    text = _fixed(head, rows)
+    tested = [r for r in records if r.get("exposure_test")]
+    if tested:
+        e0 = tested[0]["exposure_test"]
+        head = ("scene", "seeds", "mitsuba E", "sd", "port E", "sd", "diff %", "t", "df", "p",
+                "E test")
+        rows = []
+        for r in tested:
+            e = r["exposure_test"]
+            rows.append((r["label"], f"{e['seeds'][0]}-{e['seeds'][-1]}",
+                         f"{e['mean'][0]:.4f}", f"{e['sd'][0]:.4f}", f"{e['mean'][1]:.4f}",
+                         f"{e['sd'][1]:.4f}", f"{100 * e['rel_diff']:+.2f}",
+                         _num(e["t"], ".2f"), _num(e["df"], ".1f"), _num(e["p"], ".2g"),
+                         "pass" if e["passed"] else "FAIL"))
+        text += (f"\n\nexposure test: each side's auto exposure over {len(e0['seeds'])} seeds, "
+                 f"Welch's t-test, alpha {e0['alpha']:g} (two-sided)\n" + _fixed(head, rows))
+    return text
+
+
+def _fixed(head, rows) -> str:
     widths = [max(len(x) for x in col) for col in zip(head, *rows)]
     line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w)   # noqa: E731
                                    for i, (c, w) in enumerate(zip(cells, widths)))

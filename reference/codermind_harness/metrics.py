@@ -1,4 +1,5 @@
-"""Image comparison statistics: a two-sample z-test per sub-sample, FLIP, relative MSE.
+"""Comparison statistics: a two-sample z-test per sub-sample, FLIP, relative MSE, and a
+two-sample test of the auto exposure.
 
 **z-test** (:func:`z_test`), as Mitsuba's ``RenderingRegressionTest`` but with two estimated
 sides: one test per sub-sample (film pixel) and RGB channel of the linear radiance, with
@@ -24,10 +25,19 @@ integer images): :func:`check_ldr` refuses all of them first with :class:`FlipIn
 **Relative MSE** (:func:`rel_mse`): mean over sub-samples and channels of
 (test - ref)^2 / (ref^2 + 0.01), on linear radiance (the usual 0.01 keeps dark pixels from
 dominating).
+
+**Exposure test** (:func:`exposure_test`): each side's page-4 auto exposure E (spec 2.5: 256
+single-ray probes) is a random variable of its random numbers; with E estimated for several
+seeds on each side, Welch's two-sample t-test (unequal variances, Welch-Satterthwaite degrees
+of freedom) of the two means at level ``EXPOSURE_ALPHA`` (two-sided). One test per scene: the
+level is 0.001 so that a run over ten scenes falsely fails with about the image tests'
+family-wise 0.01. When neither side's E varies beyond the float tolerance (a scene without
+randomness), the means must agree within rtol |E| + atol instead.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +49,8 @@ RTOL = 1e-3
 ATOL = 1e-4
 #: The relative MSE's guard for dark pixels.
 REL_MSE_EPS = 1e-2
+#: Two-sided level of the exposure test (one test per scene, see the module doc).
+EXPOSURE_ALPHA = 1e-3
 
 
 class FlipInputError(ValueError):
@@ -159,3 +171,43 @@ def flip(reference: np.ndarray, test: np.ndarray) -> tuple[float, np.ndarray]:
     if error_map.ndim == 3:
         error_map = error_map[..., 0]
     return float(mean), error_map
+
+
+@dataclass
+class ExposureTest:
+    """Result of :func:`exposure_test`; side ``a`` is Mitsuba, ``b`` the port in compare."""
+    passed: bool
+    method: str                #: "welch" or "float tolerance" (neither side noisy)
+    alpha: float
+    n: tuple[int, int]         #: seeds per side
+    mean: tuple[float, float]
+    sd: tuple[float, float]    #: sample sd over the seeds
+    rel_diff: float            #: (mean_a - mean_b) / |mean_b|
+    t: float | None            #: Welch's t (None: float tolerance)
+    df: float | None
+    p: float | None            #: two-sided p-value
+
+
+def exposure_test(a, b, alpha: float = EXPOSURE_ALPHA, rtol: float = RTOL,
+                  atol: float = ATOL) -> ExposureTest:
+    """Welch's two-sample t-test of two sets of auto-exposure estimates (module doc)."""
+    from scipy.stats import t as student_t
+    a, b = (np.asarray(x, dtype=np.float64).ravel() for x in (a, b))
+    if a.size < 2 or b.size < 2:
+        raise ValueError(f"exposure_test needs >= 2 estimates per side, got {a.size} and "
+                         f"{b.size}")
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        raise ValueError("exposure_test: a non-finite exposure estimate")
+    ma, mb = float(a.mean()), float(b.mean())
+    sa, sb = float(a.std(ddof=1)), float(b.std(ddof=1))
+    rel = (ma - mb) / abs(mb) if mb != 0 else (0.0 if ma == mb else math.inf)
+    tol = rtol * max(abs(ma), abs(mb)) + atol
+    common = dict(alpha=alpha, n=(a.size, b.size), mean=(ma, mb), sd=(sa, sb), rel_diff=rel)
+    if sa <= tol and sb <= tol:
+        return ExposureTest(abs(ma - mb) <= tol, "float tolerance", t=None, df=None, p=None,
+                            **common)
+    va, vb = sa * sa / a.size, sb * sb / b.size
+    t = (ma - mb) / math.sqrt(va + vb)
+    df = (va + vb) ** 2 / (va * va / (a.size - 1) + vb * vb / (b.size - 1))
+    p = float(2.0 * student_t.sf(abs(t), df))
+    return ExposureTest(p >= alpha, "welch", t=float(t), df=float(df), p=p, **common)

@@ -1,7 +1,7 @@
 """One tutorial scene rendered on both sides, at matched sample positions and counts.
 
 * **Mitsuba**: the converted XML (``codermind convert``, full model: ``path`` with
-  ``max_depth`` 11) rendered with ``codermind.tutorial_render``: lights summed as the tutorial
+  ``max_depth`` 11) rendered with ``codermind.tutorial.render``: lights summed as the tutorial
   does, ``spp`` samples per film pixel (= per tutorial sub-sample), the variance of each
   sub-sample's mean from >= 16 pass means.
 * **Port**: ``codermind_ref.render`` in clean mode (or any mode) with Complexity = ``spp``.
@@ -12,8 +12,13 @@ page 2: 1). A :class:`Grid` picks part of the image: ``rect`` (half-open, tutori
 coordinates, y up) and ``stride`` (every stride-th pixel). The port renders only those
 pixels; Mitsuba renders the rectangle (a film crop) and the grid is taken from it.
 
+Page 4 also yields each side's auto exposure for a list of seeds (:func:`port_exposures`;
+``render_mitsuba(..., exposure_seeds=...)``): the port's from its probe grid, Mitsuba's from
+the converted XML's ``probes`` sensor traced with its integrator
+(``codermind.tutorial.render.probe_exposure``), lights summed as for the image.
+
 A scene without randomness (no lens blur, every roulette event certain:
-``codermind.tutorial_model``) is rendered with one sample on both sides; its variance is 0
+``codermind.tutorial.model``) is rendered with one sample on both sides; its variance is 0
 by construction on both (the port reports NaN for one ray on page 4, which is then 0).
 """
 
@@ -28,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 #: The converted XML's header names its source file: "Converted by `codermind convert`
-#: from NAME (scene version ..." (codermind.tutorial_xml).
+#: from NAME (scene version ..." (codermind.tutorial.xml).
 _SOURCE = re.compile(r"Converted by `codermind convert` from (?P<name>.+?) \(scene version")
 _FILM = re.compile(r'<film\b[^>]*\btype="hdrfilm"[^>]*>')
 #: Samples per sub-sample of a random scene when its Complexity is lower. FLIP compares two
@@ -103,6 +108,8 @@ class SideImage:
     spp: int
     seconds: float           #: rendering (and, for Mitsuba, loading) wall time
     load_seconds: float = 0.0
+    probe_exposures: list[float] | None = None   #: auto exposure per seed asked for
+    probe_seconds: float = 0.0
 
 
 # -- the scene and its twin ------------------------------------------------------------------
@@ -138,7 +145,7 @@ def parse(txt: Path):
 
 def is_random(scene) -> bool:
     """Whether a sub-sample's rays differ (lens blur or a random roulette event)."""
-    from codermind.tutorial_model import choose
+    from codermind.tutorial.model import choose
     return choose(scene, exposure=1.0, max_depth=11, spp=1).stochastic
 
 
@@ -160,11 +167,18 @@ def port_exposure(scene, seed: int, mode: str = "clean") -> float | None:
     return ref.render(scene, mode, seed, 1, rect=(0, 0, 1, 1), workers=1).exposure
 
 
+def port_exposures(scene, seeds, mode: str = "clean") -> list[float] | None:
+    """:func:`port_exposure` for each seed (page 4; None on other pages)."""
+    if scene.page != 4:
+        return None
+    return [port_exposure(scene, int(s), mode) for s in seeds]
+
+
 def convert_xml(txt: Path, scene, out_dir: Path, blob_max_error: float | None = None,
                 name: str | None = None) -> Path:
     """The converter's XML of ``scene`` with the full model (``max_depth`` 11), written to
     ``out_dir`` (cube-map faces named relative to it)."""
-    from codermind.tutorial_convert import convert_scene
+    from codermind.tutorial.convert import convert_scene
     from codermind.imageio import atomic_path
     xml = out_dir / (name or f"{txt.stem}.xml")
     conversion = convert_scene(scene, xml, max_depth=11, spp=1, blob_max_error=blob_max_error,
@@ -194,7 +208,7 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict):
     import mitsuba as mi
     from codermind.errors import CodermindError
     from codermind.scene import attach_emitters, load_scene
-    from codermind.tutorial_render import read_settings
+    from codermind.tutorial.render import read_settings
     settings = read_settings(xml)
     if settings is None:
         raise HarnessError(f"{xml}: not a converted tutorial scene (no codermind-tutorial "
@@ -224,8 +238,8 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict):
 
 
 def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.ndarray:
-    """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial_image)."""
-    from codermind.tutorial_image import average_blocks, srgb_encode, tone_curve
+    """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial.image)."""
+    from codermind.tutorial.image import average_blocks, srgb_encode, tone_curve
     if settings.page == 1:
         return np.clip(linear, 0.0, 1.0)
     e = 1.0 if exposure is None else float(exposure)
@@ -234,9 +248,11 @@ def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.n
 
 def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
                    defines: dict | None = None, variance: bool = True,
-                   progress: bool = True) -> SideImage:
+                   progress: bool = True, exposure_seeds=()) -> SideImage:
+    """The grid rendered from ``xml``; with ``exposure_seeds`` (page 4) also the auto
+    exposure of the XML's probes for each of those seeds."""
     from codermind.render import Progress
-    from codermind.tutorial_render import light_scenes, render_linear
+    from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     t0 = time.perf_counter()
     defines = dict(defines or {})
     scene, settings = load_mitsuba(xml, grid, defines)
@@ -244,11 +260,15 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     scenes = light_scenes(scene) if settings.lights == "sum" else scene
     bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
     mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance, progress=bar)
+    t2 = time.perf_counter()
+    exposures = None
+    if settings.page == 4 and len(exposure_seeds):
+        exposures = [probe_exposure(scenes, settings, int(s)) for s in exposure_seeds]
     seconds = time.perf_counter() - t0
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, seconds, t1 - t0)
+                     done, t2 - t0, t1 - t0, exposures, seconds - (t2 - t0))
 
 
 # -- the port --------------------------------------------------------------------------------
@@ -258,8 +278,8 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                 progress: bool = True) -> SideImage:
     import codermind_ref as ref
     t0 = time.perf_counter()
-    from codermind.commands.reference import _Progress   # the port's own progress line
-    callback = _Progress(f"port {Path(scene.path).name}") if progress else None
+    from .progress import PortProgress
+    callback = PortProgress(f"port {Path(scene.path).name}") if progress else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
                         stride=grid.stride, workers=workers, progress=callback)
     seconds = time.perf_counter() - t0

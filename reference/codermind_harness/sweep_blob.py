@@ -1,4 +1,4 @@
-"""Sweep: the ``blob`` mesher (``codermind.shapes._blobmesh.build_blob_mesh``, what the
+"""Sweep: the ``blob`` mesher (``codermind.blobmesh.build_blob_mesh``, what the
 ``blob`` plugin builds) on two sources as their distance D approaches 2 sqrt(2) R, where the
 neck between them pinches off.
 
@@ -78,7 +78,7 @@ def _mesh_neck(v: np.ndarray, f: np.ndarray, x_mid: float) -> float:
 
 
 def blob_neck(quick: bool = False) -> SweepResult:
-    from codermind.shapes._blobmesh import build_blob_mesh
+    from codermind.blobmesh import build_blob_mesh
     offsets = [-0.3, -0.1, -0.03, -0.01, -0.003, -0.001, -0.0003, -0.0001, 0.0001, 0.001, 0.01,
                0.03, 0.1] if not quick else [-0.1, -0.01, -0.001, 0.001, 0.01, 0.1]
     errors = [1 / 500, 1 / 50]                 # max_error / R: the plugin's default, and coarse
@@ -168,7 +168,7 @@ def blob_neck(quick: bool = False) -> SweepResult:
 def _picture(rows) -> tuple[np.ndarray | None, str]:
     """The mesh closest to pinching off that still has the true (one-piece) topology, drawn
     as its silhouette around the neck (x-y plane, 200 x 100)."""
-    from codermind.shapes._blobmesh import build_blob_mesh
+    from codermind.blobmesh import build_blob_mesh
     ok = [row for row in rows if row["true_components"] == 1 and row["components"] == 1
           and row["max_error"] == rows[0]["max_error"] and row["field"] == "tutorial"]
     if not ok:

@@ -8,7 +8,9 @@ import math
 
 import numpy as np
 
-from ._mitsuba import load_error, variant
+from codermind.variants import set_variant
+
+from ._mitsuba import load_error
 from .stability import Series, SweepResult, finite_check
 
 # -- blinnphong ------------------------------------------------------------------------------
@@ -93,7 +95,7 @@ def _pdf64(wi, wo, exponent, p_spec):
 
 def blinnphong_exponent(quick: bool = False) -> SweepResult:
     import drjit as dr
-    mi = variant()
+    mi = set_variant()
     exponents = [1.0, 1e2, 1e4, 1e6] if quick else [1.0, 10.0, 1e2, 1e3, 1e4, 3e4, 1e5, 3e5, 1e6]
     angles = [30.0] if quick else [30.0, 80.0]
     kd, ks = 0.2, 0.8
@@ -206,7 +208,7 @@ def _plugin_reflectance(mi, density: float, cos_i: np.ndarray, inside: bool):
 def _scalar_outputs(density: float) -> list[float]:
     """The tutorial BSDF in scalar_rgb (one call per direction, Python floats) at normal,
     grazing and exactly tangent incidence, both sides: every sample and eval value."""
-    mi = variant("scalar_rgb")
+    mi = set_variant("scalar_rgb")
     bsdf = mi.load_dict({"type": "tutorial", "reflection": 1.0, "refraction": 1.0,
                          "density": density, "diffuse": 0.5, "specular": 1.0, "power": 10.0})
     values = []
@@ -220,7 +222,7 @@ def _scalar_outputs(density: float) -> list[float]:
             bs, w = bsdf.sample(mi.BSDFContext(), si, u, mi.Point2f(0.5, 0.5))
             values += [float(bs.pdf), *map(float, bs.wo), *map(float, w)]
         values += [float(c) for c in bsdf.eval(mi.BSDFContext(), si, mi.Vector3f(0, 0, 1))]
-    variant("llvm_ad_rgb")
+    set_variant("llvm_ad_rgb")
     return values
 
 
@@ -231,7 +233,7 @@ def _unit(mi, v):
 
 def fresnel(quick: bool = False) -> SweepResult:
     from codermind_ref.transport import fresnel as port_fresnel
-    mi = variant()
+    mi = set_variant()
     m = 2001 if quick else 20001
     cos_i = np.unique(np.concatenate([np.linspace(0.0, 1.0, m), np.geomspace(1e-9, 1e-2, 200),
                                       1.0 - np.geomspace(1e-9, 1e-2, 200), [0.999, 0.01]]))

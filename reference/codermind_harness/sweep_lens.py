@@ -13,7 +13,9 @@ import math
 
 import numpy as np
 
-from ._mitsuba import load_error, variant
+from codermind.variants import set_variant
+
+from ._mitsuba import load_error
 from .stability import Series, SweepResult, finite_check, first_crossing
 
 W, H, FOV, FOCUS = 64, 48, 60.0, 100.0
@@ -48,7 +50,7 @@ def _miss(o: np.ndarray, d: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def thin_lens(quick: bool = False) -> SweepResult:
-    mi = variant()
+    mi = set_variant()
     rng = np.random.default_rng(9)
     n = 1024 if quick else 8192
     s2, s3 = rng.random((2, n)), rng.random((2, n))

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._mitsuba import variant
+from codermind.variants import set_variant
+
 from .stability import Series, SweepResult, finite_check, first_crossing
 
 LIMIT = 1e-2
@@ -25,7 +26,7 @@ def _evaluate(mi, texture, points: np.ndarray) -> np.ndarray:
 
 def perlin_float32(quick: bool = False) -> SweepResult:
     from codermind_ref.perlin import noise
-    mi = variant()
+    mi = set_variant()
     texture = mi.load_dict({"type": "perlin"})
     rng = np.random.default_rng(8)
     step, n = (4, 4000) if quick else (8, 20000)

@@ -6,14 +6,17 @@ radius RATIO[k] R^2 and RATIO[k+1] R^2, where f = SLOPE[k] x + INTERCEPT[k]; ins
 (x < 1) the last piece continues. Along a ray x_i is quadratic in t, so between two
 consecutive zone-sphere crossings (of any source) the field is a quadratic in t.
 
-The original accumulates polynomial increments over the sorted crossings; here the zone depth
-of each source in each interval is counted instead (entries minus exits) and the interval's
-polynomial is built from the cumulative SLOPE/INTERCEPT table: the same polynomial up to
-rounding. The running upper bound (0.2 for zone 0, +0.1 per deeper zone) is kept in exact
-tenths, so a lone source's core (bound exactly 1) is never dropped by a rounding of 0.2 + 8 x
-0.1. As in the original, the direction is taken as unit length (A = 1) and roots count if
-> 0.01, inside their interval [t_i, t_i+1) and <= the current t; the first interval with a root
-wins, which is the smallest valid root.
+The original accumulates, over the crossings sorted by t, each zone's polynomial increment and
+its bound increment (0.2 for zone 0, 0.1 per deeper zone) as float32 running sums. With
+``float32_sums`` (strict) this is what is done: the running bound is a float32 sum in sorted
+event order and the `< 1` test is decided on it, so a lone source's core can come out at
+0.99999994 and be skipped (holes, glass paths escaping from inside; spec 2.10). Without it
+(clean) the zone depth of each source in each interval is counted instead (entries minus exits),
+the bound is in exact tenths (a lone source's core is exactly 1 and kept) and the interval's
+polynomial is built from the cumulative SLOPE/INTERCEPT table in float64: the same polynomial up
+to rounding. As in the original, the direction is taken as unit length (A = 1 per source) and
+roots count if > 0.01, inside their interval [t_i, t_i+1) and <= the current t; the first
+interval with a root wins, which is the smallest valid root.
 
 Rays are first culled with an upper bound of the field on the ray (sum of f at each source's
 closest approach): where it is < 1 there can be no root; this only saves time.
@@ -31,6 +34,14 @@ SLOPE = np.array([0, -0.04, -0.06, -0.12, -0.20, -0.30, -0.42, -0.56, -0.72, -0.
 INTERCEPT = np.array([0, 0.4, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9])              # by depth
 BOUND_TENTHS = np.array([0, 2, 3, 4, 5, 6, 7, 8, 9, 10], dtype=np.int16)            # by depth
 ZONES = 9  # zone spheres 0..8 produce crossings; zone 9 is only the terminator
+# float32 increments of one zone crossing (entering zone sphere k: depth k -> k + 1). The bound
+# steps are the float32 differences of the zone bounds 0.2, 0.3, ..., 1.0 (so 0.1 only up to
+# float32 rounding): with them a lone source's core sums to exactly 1, and to 0.99999994 after
+# another source's zone 0 was entered and left in between, as spec 2.10 states (plain 0.1f
+# steps give 1.0000001 there and no holes).
+_BOUND_INC32 = np.diff(np.array([0.0] + [0.1 * k for k in range(2, 11)], dtype=np.float32))
+_SLOPE_INC = np.diff(SLOPE)
+_INTERCEPT_INC = np.diff(INTERCEPT)
 
 
 def field(x: np.ndarray) -> np.ndarray:
@@ -64,10 +75,11 @@ _DIGITS = np.array([[code // 100, code // 10 % 10, code % 10] for code in range(
 _BOUND_OF_CODE = BOUND_TENTHS[_DIGITS].sum(axis=0).astype(np.int16)   # (1000,)
 
 
-def hit(o: np.ndarray, d: np.ndarray, t: np.ndarray, centers: np.ndarray, radius: float
-        ) -> tuple[np.ndarray, np.ndarray]:
+def hit(o: np.ndarray, d: np.ndarray, t: np.ndarray, centers: np.ndarray, radius: float,
+        float32_sums: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(new t, hit mask): the blob's first root in (0.01, t] per ray (roots equal to t count),
-    t unchanged where there is none."""
+    t unchanged where there is none. float32_sums: the original's float32 running sums of the
+    bound and the polynomial (strict), else exact tenths (clean)."""
     r2 = radius * radius
     oc = [centers[s].reshape(3, 1) - o for s in range(3)]
     b = np.stack([dot(d, v) for v in oc])
@@ -88,33 +100,12 @@ def hit(o: np.ndarray, d: np.ndarray, t: np.ndarray, centers: np.ndarray, radius
     np.add(bt, root, out=events[:, :, 1])
     events = events.reshape(n, width)
     order = np.argsort(events, axis=1)
-    # After the last real crossing come the NaN ones, whose steps make the code meaningless
-    # (each digit stays within -9..9, so indexing stays in range); their intervals end at NaN
-    # and are dropped below. Column k holds the code of the interval from crossing k to k + 1.
-    code = np.cumsum(_STEP[order], axis=1, dtype=np.int16)
-    valid = _BOUND_OF_CODE[code] >= 10                                    # bound >= 1
-    valid[:, -1] = False
-    idx = np.flatnonzero(valid)
-    if idx.size == 0:
+    if float32_sums:
+        ray, lo, hi, tm, qa, qb, qc = _intervals_float32(events, order, b, cc, r2, tmax, width)
+    else:
+        ray, lo, hi, tm, qa, qb, qc = _intervals_exact(events, order, b, r2, cc, tmax, width)
+    if ray.size == 0:
         return out, hits
-    ray = idx // width
-    order = order.reshape(-1)
-    flat = events.reshape(-1)
-    lo, hi = flat[ray * width + order[idx]], flat[ray * width + order[idx + 1]]
-    tm = tmax[ray]
-    live = (lo < tm) & (hi > EPSILON) & (hi < np.inf)     # hi is NaN past the last crossing
-    ray, lo, hi, tm, c = ray[live], lo[live], hi[live], tm[live], code.reshape(-1)[idx[live]]
-    # the interval's field A t^2 + B t + C from each source's zone line SLOPE x + INTERCEPT,
-    # x = (t^2 - 2 b t + cc) / R^2
-    qa = np.zeros(ray.size)
-    qb = np.zeros(ray.size)
-    qc = np.full(ray.size, -1.0)
-    for s in range(3):
-        depth = _DIGITS[s][c]
-        slope = SLOPE[depth] / r2
-        qa += slope
-        qb -= 2.0 * b[s][ray] * slope
-        qc += cc[s][ray] * slope + INTERCEPT[depth]
     delta = qb * qb - 4.0 * qa * qc
     ok = delta >= 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -134,6 +125,68 @@ def hit(o: np.ndarray, d: np.ndarray, t: np.ndarray, centers: np.ndarray, radius
     out[idx] = best[first]
     hits[idx] = True
     return out, hits
+
+
+def _intervals_exact(events, order, b, r2, cc, tmax, width):
+    """Candidate intervals with bound >= 1 in exact tenths, and their polynomial A t^2 + B t +
+    (C - 1) from the zone depths (float64)."""
+    n = events.shape[0]
+    # After the last real crossing come the NaN ones, whose steps make the code meaningless
+    # (each digit stays within -9..9, so indexing stays in range); their intervals end at NaN
+    # and are dropped below. Column k holds the code of the interval from crossing k to k + 1.
+    code = np.cumsum(_STEP[order], axis=1, dtype=np.int16)
+    valid = _BOUND_OF_CODE[code] >= 10                                    # bound >= 1
+    valid[:, -1] = False
+    ray, lo, hi, tm, idx = _live(np.flatnonzero(valid), events, order, tmax, width)
+    c = code.reshape(-1)[idx]
+    # the interval's field A t^2 + B t + C from each source's zone line SLOPE x + INTERCEPT,
+    # x = (t^2 - 2 b t + cc) / R^2
+    qa = np.zeros(ray.size)
+    qb = np.zeros(ray.size)
+    qc = np.full(ray.size, -1.0)
+    for s in range(3):
+        depth = _DIGITS[s][c]
+        slope = SLOPE[depth] / r2
+        qa += slope
+        qb -= 2.0 * b[s][ray] * slope
+        qc += cc[s][ray] * slope + INTERCEPT[depth]
+    return ray, lo, hi, tm, qa, qb, qc
+
+
+def _intervals_float32(events, order, b, cc, r2, tmax, width):
+    """Candidate intervals as the original finds them: the bound and A, B, C are float32 running
+    sums over the crossings in sorted order, and the bound test is decided in float32."""
+    n = events.shape[0]
+    missed = np.isnan(events).reshape(n, 3, 2, ZONES)
+    sign = np.array([1.0, -1.0]).reshape(1, 1, 2, 1)
+    bound = np.where(missed, np.float32(0), sign.astype(np.float32) * _BOUND_INC32)
+    # quick reject: the total of the entry increments (source by source, outer zone first)
+    total = np.cumsum(bound[:, :, 0].reshape(n, -1), axis=1, dtype=np.float32)[:, -1]
+    gamma = _SLOPE_INC / r2                                                     # (9,)
+    bt, ct = b.T[:, :, None, None], cc.T[:, :, None, None]
+    inc_a = np.where(missed, 0.0, sign * gamma).astype(np.float32)
+    inc_b = np.where(missed, 0.0, sign * (-2.0 * bt * gamma)).astype(np.float32)
+    inc_c = np.where(missed, 0.0, sign * (ct * gamma + _INTERCEPT_INC)).astype(np.float32)
+    # np.cumsum accumulates sequentially in the given dtype: the running sums in event order
+    sums = [np.cumsum(np.take_along_axis(x.reshape(n, width), order, axis=1), axis=1,
+                      dtype=np.float32) for x in (bound, inc_a, inc_b, inc_c)]
+    valid = (sums[0] >= np.float32(1.0)) & (total >= np.float32(1.0))[:, None]
+    valid[:, -1] = False
+    ray, lo, hi, tm, idx = _live(np.flatnonzero(valid), events, order, tmax, width)
+    qa, qb, qc = (x.reshape(-1)[idx].astype(np.float64) for x in sums[1:])
+    return ray, lo, hi, tm, qa, qb, qc - 1.0
+
+
+def _live(idx, events, order, tmax, width):
+    """The intervals idx (flat (ray, column) indices) that overlap (0.01, current t): ray, start,
+    end, current t and the surviving flat indices."""
+    ray = idx // width
+    order = order.reshape(-1)
+    flat = events.reshape(-1)
+    lo, hi = flat[ray * width + order[idx]], flat[ray * width + order[idx + 1]]
+    tm = tmax[ray]
+    live = (lo < tm) & (hi > EPSILON) & (hi < np.inf)     # hi is NaN past the last crossing
+    return ray[live], lo[live], hi[live], tm[live], idx[live]
 
 
 def normal(p: np.ndarray, centers: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:

@@ -1,10 +1,12 @@
-"""Ken Perlin's 2002 "improved noise" in double precision, vectorized (spec 2.8), and the
-tutorial's turbulence sum.
+"""The tutorial's version of Ken Perlin's 2002 "improved noise" in double precision,
+vectorized (spec 2.8), and the tutorial's turbulence sum.
 
-The arithmetic follows the reference code operation by operation (fade 6t^5-15t^4+10t^3,
-lerp a + t(b - a), grad from the low 4 bits of the hash), so scalar results are bit-identical
-to it: ``noise(3.14, 42, 7) == 0.13691995878400012``. The table is Perlin's (223 at index
-156, where some printed copies have a typo 23).
+The arithmetic follows the code operation by operation (fade 6t^5-15t^4+10t^3, lerp
+a + t(b - a), grad from the low 4 bits of the hash), so scalar results are bit-identical to it:
+``noise(3.14, 42, 7) == 0.13691995878400012``. The table is Perlin's (223 at index 156, where the
+tutorial's printed table has a typo 23). The gradient is the tutorial's, which differs from
+Perlin's reference for hashes 13 and 14 (tutorial -x + y and y - z, reference -y + z and y - x);
+``gradient="reference"`` gives Perlin's, for comparisons only: the original uses the tutorial's.
 """
 
 from __future__ import annotations
@@ -28,25 +30,36 @@ PERMUTATION = (
 )
 _P = np.array(PERMUTATION * 2, dtype=np.int32)
 
-# grad(h, x, y, z) = (+-u) + (+-v) written as gx*x + gy*y + gz*z with one of gx, gy, gz = 0:
-# u = x if h < 8 else y; v = y if h < 4 else (x if h in (12, 14) else z); bit 0 negates u,
-# bit 1 negates v. Adding the exact zero term does not change the rounded sum.
-_G = np.zeros((3, 16))
-for _h in range(16):
-    _u = 0 if _h < 8 else 1
-    _v = 1 if _h < 4 else (0 if _h in (12, 14) else 2)
-    _G[_u, _h] += -1.0 if _h & 1 else 1.0
-    _G[_v, _h] += -1.0 if _h & 2 else 1.0
-# indexed directly by a permutation value (0..255): the low 4 bits select the gradient
-_GX, _GY, _GZ = (np.ascontiguousarray(np.tile(_G[i], 16)) for i in range(3))
+# grad(h, x, y, z) = (+-u) + (+-v) written as gx*x + gy*y + gz*z with one of gx, gy, gz = 0;
+# bit 0 negates u, bit 1 negates v. Adding the exact zero term does not change the rounded sum.
+# tutorial: u = x if (h < 8 or h in (12, 13)) else y; v = y if (h < 4 or h in (12, 13)) else z
+# reference: u = x if h < 8 else y; v = y if h < 4 else (x if h in (12, 14) else z)
+def _gradient_table(tutorial: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    g = np.zeros((3, 16))
+    for h in range(16):
+        if tutorial:
+            u = 0 if (h < 8 or h in (12, 13)) else 1
+            v = 1 if (h < 4 or h in (12, 13)) else 2
+        else:
+            u = 0 if h < 8 else 1
+            v = 1 if h < 4 else (0 if h in (12, 14) else 2)
+        g[u, h] += -1.0 if h & 1 else 1.0
+        g[v, h] += -1.0 if h & 2 else 1.0
+    # indexed directly by a permutation value (0..255): the low 4 bits select the gradient
+    return tuple(np.ascontiguousarray(np.tile(g[i], 16)) for i in range(3))
+
+
+GRADIENTS = {"tutorial": _gradient_table(True), "reference": _gradient_table(False)}
 
 
 def _fade(t: np.ndarray) -> np.ndarray:
     return t * t * t * (t * (t * 6 - 15) + 10)
 
 
-def noise(x, y, z) -> np.ndarray:
-    """Improved noise at arrays (or scalars) x, y, z; same shape as their broadcast."""
+def noise(x, y, z, gradient: str = "tutorial") -> np.ndarray:
+    """Improved noise at arrays (or scalars) x, y, z; same shape as their broadcast.
+    gradient: "tutorial" (the original's) or "reference" (Perlin's 2002 code)."""
+    gx, gy, gz = GRADIENTS[gradient]
     x, y, z = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (x, y, z)))
     fx, fy, fz = np.floor(x), np.floor(y), np.floor(z)
     X = fx.astype(np.int32) & 255
@@ -62,7 +75,7 @@ def noise(x, y, z) -> np.ndarray:
 
     def grad(corner, a, b, c):
         h = P[corner]
-        return _GX[h] * a + _GY[h] * b + _GZ[h] * c
+        return gx[h] * a + gy[h] * b + gz[h] * c
 
     # lerp(t, lo, hi) = lo + t * (hi - lo), as Perlin nests them (x innermost)
     e00 = grad(AA, x, y, z)

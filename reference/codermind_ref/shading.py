@@ -36,7 +36,7 @@ def direct(world: World, p: np.ndarray, n: np.ndarray, d: np.ndarray, coef: np.n
         ok = length > 0.0
         lit, dl, length2, length = lit[ok], dl[:, ok], length2[ok], length[ok]
         ldir = (1.0 / length) * dl
-        blocked = world.occluded(p[:, lit], ldir, length2 if squared else length)
+        blocked = world.occluded(p[:, lit], ldir, length2 if squared else length, quirks)
         lit, ldir = lit[~blocked], ldir[:, ~blocked]
         if lit.size == 0:
             continue

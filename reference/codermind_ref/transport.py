@@ -111,7 +111,7 @@ def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
             colour[:, ids[sel]] += coef[sel] * env.lookup(directions)
 
     while ids.size:
-        t, obj = world.intersect(o, d, np.full(ids.size, T_START))
+        t, obj = world.intersect(o, d, np.full(ids.size, T_START), quirks)
         miss = np.flatnonzero(obj < 0)
         add_env(miss, d[:, miss])
         keep = np.flatnonzero(obj >= 0)
@@ -184,7 +184,8 @@ def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
         if quirks.cubemap_at_limit:
             add_env(at_limit, d[:, at_limit])
         elif at_limit.size:     # clean: the last ray is traced; only an escape sees the sky
-            _, hit = world.intersect(p[:, at_limit], d[:, at_limit], np.full(at_limit.size, T_START))
+            _, hit = world.intersect(p[:, at_limit], d[:, at_limit], np.full(at_limit.size, T_START),
+                                     quirks)
             escaped = at_limit[hit < 0]
             add_env(escaped, d[:, escaped])
         keep = np.flatnonzero(go_on & (level < MAX_SEGMENTS))

@@ -11,6 +11,7 @@ import numpy as np
 from . import blob, sphere
 from .cubemap import Environment
 from .materials import MaterialTable
+from .quirks import STRICT, Quirks
 from .scene import Scene
 
 
@@ -32,8 +33,10 @@ class World:
         self.light_intensity = [np.array(l.intensity, dtype=dtype).reshape(3, 1) for l in scene.lights]
         self.environment = Environment(scene.cubemap)
 
-    def intersect(self, o: np.ndarray, d: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Nearest hit before t: (t, object id), id -1 where nothing is hit."""
+    def intersect(self, o: np.ndarray, d: np.ndarray, t: np.ndarray, quirks: Quirks = STRICT
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest hit before t: (t, object id), id -1 where nothing is hit. quirks: whether
+        blobs use the original's float32 sums (``blob_float32``)."""
         obj = np.full(t.shape, -1, dtype=np.intp)
         # spheres first, then blobs up to the sphere hit: a blob root <= t still wins, so this
         # is the original's order (blobs, then strictly closer spheres), with a shorter
@@ -44,11 +47,12 @@ class World:
             t = t_new
         first = len(self.spheres)
         for i, (centers, radius) in enumerate(self.blobs):
-            t, hit = blob.hit(o, d, t, centers, radius)
+            t, hit = blob.hit(o, d, t, centers, radius, quirks.blob_float32)
             obj = np.where(hit, first + i, obj)
         return t, obj
 
-    def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray) -> np.ndarray:
+    def occluded(self, o: np.ndarray, d: np.ndarray, tmax: np.ndarray, quirks: Quirks = STRICT
+                 ) -> np.ndarray:
         """Shadow test: any object hit at a distance in (epsilon, tmax)."""
         blocked = np.zeros(tmax.shape, dtype=bool)
         for center, radius in self.spheres:
@@ -58,7 +62,7 @@ class World:
             if rest.size == 0:
                 break
             t = tmax[rest]
-            hit = blob.hit(o[:, rest], d[:, rest], t, centers, radius)[1]
+            hit = blob.hit(o[:, rest], d[:, rest], t, centers, radius, quirks.blob_float32)[1]
             blocked[rest[hit]] = True
             rest = rest[~hit]
         return blocked

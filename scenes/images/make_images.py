@@ -1,4 +1,4 @@
-"""Render the README's images of the bundled scenes into this folder (PNG only).
+"""Render the images of the bundled scenes (README, docs) into this folder (PNG only).
 
 Run from anywhere: ``.venv/bin/python scenes/images/make_images.py [--only NAME ...]``.
 The tutorial scenes go through ``codermind render`` with the tutorial's image pipeline at the
@@ -33,7 +33,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.only or JOBS:
             out = Path(tmp) / name
-            cmd = [sys.executable, "-m", "codermind", "render", str(SCENES / f"{name}.xml"),
+            cmd = [sys.executable, "-m", "codermind_cli", "render", str(SCENES / f"{name}.xml"),
                    "-o", str(out), "--seed", "0", *JOBS[name]]
             print(" ".join(cmd[2:]), flush=True)
             subprocess.run(cmd, check=True)

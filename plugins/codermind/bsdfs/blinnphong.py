@@ -3,7 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ._params import read_float, read_texture, uniform_rgb
+from ..params import read_float, read_texture, uniform_rgb
 
 
 class BlinnPhongBSDF(mi.BSDF):

@@ -5,8 +5,7 @@ import mitsuba as mi
 
 from ..exposed import exposed, scalar_matrix, take_float
 from ..textures import _noise
-from ..params import flag
-from ._params import read_float
+from ..params import flag, read_float
 
 
 class NoiseBumpBSDF(mi.BSDF):
@@ -30,6 +29,12 @@ class NoiseBumpBSDF(mi.BSDF):
        - |float|
        - Noise frequency :math:`f` per world unit (Default: 0.1, the tutorial's, whose
          scenes are in pixels)
+
+     * - gradient
+       - |string|
+       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+         ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
+         (Default: ``tutorial``)
 
      * - to_world
        - |transform|
@@ -58,11 +63,11 @@ class NoiseBumpBSDF(mi.BSDF):
         N = \bigl(\mathrm{noise}(f(x, y, z)), \mathrm{noise}(f(y, z, x)),
                   \mathrm{noise}(f(z, x, y))\bigr),
 
-    with Perlin's improved noise at the world position (no unit conversion: world units
-    as in the tutorial) and :math:`n` the shading normal. The tutorial flips the normal
-    towards the ray BEFORE bumping, so for a hit from behind its unbumped normal (the
-    tutorial's "inside", e.g. inside its glass blob) it bumps :math:`-n` with
-    :math:`+N`; the outward normal is then :math:`\mathrm{normalize}((1-b)\,n - b\,N)`.
+    with the tutorial's Perlin noise (see ``gradient``) at the world position (no unit
+    conversion: world units as in the tutorial) and :math:`n` the shading normal. The
+    tutorial flips the normal towards the ray BEFORE bumping, so for a hit from behind its
+    unbumped normal (the tutorial's "inside", e.g. inside its glass blob) it bumps
+    :math:`-n` with :math:`+N`; the outward normal is then :math:`\mathrm{normalize}((1-b)\,n - b\,N)`.
     This plugin reproduces that with :math:`s = -1` behind the unbumped shading normal and
     :math:`s = +1` in front. The tangent of the new frame is the original one,
     orthogonalized. The nested BSDF's cosine is taken with the perturbed normal, so a
@@ -101,6 +106,7 @@ class NoiseBumpBSDF(mi.BSDF):
         if self.frequency == 0:
             raise ValueError(f"{name}: 'frequency' must be > 0, got 0")
         self.leak_check = flag(props, name, "leak_check", False)
+        self.gradient = _noise.read_gradient(props, name)
         self.identity = "to_world" not in props
         if not self.identity:
             inverse = props.get("to_world").inverse().matrix
@@ -112,7 +118,7 @@ class NoiseBumpBSDF(mi.BSDF):
         """The perturbed interaction (frame and wi) for the nested BSDF."""
         p = si.p if self.identity else self.to_local @ si.p
         x, y, z = p.x * self.frequency, p.y * self.frequency, p.z * self.frequency
-        bump = _noise.rotated_noise(x, y, z)
+        bump = _noise.rotated_noise(x, y, z, self.gradient)
         frame = si.sh_frame
         wi = frame.to_world(si.wi)
         b = self.bumplevel
@@ -197,7 +203,8 @@ class NoiseBumpBSDF(mi.BSDF):
 
     def to_string(self) -> str:
         return (f"NoiseBumpBSDF[\n  bumplevel = {self.bumplevel},\n"
-                f"  frequency = {self.frequency},\n  leak_check = {self.leak_check},\n"
+                f"  frequency = {self.frequency},\n  gradient = {self.gradient},\n"
+                f"  leak_check = {self.leak_check},\n"
                 f"  nested_bsdf = {self.nested}\n]")
 
 

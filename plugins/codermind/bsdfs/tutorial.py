@@ -4,8 +4,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..exposed import exposed, take_float
-from ..params import FLOAT32_MIN_NORMAL
-from ._params import read_float, read_texture
+from ..params import FLOAT32_MIN_NORMAL, read_float, read_texture
 
 PAGES = (1, 2, 4)
 

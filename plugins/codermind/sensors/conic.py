@@ -7,9 +7,9 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.exposed import exposed, scalar, scalar_matrix, take_float
-from codermind.params import FLOAT32_MAX, number
-from codermind.sensors._film import (FilmMap, check_rigid, origin_of, read_clip,
-                                    read_pixel_offset, to_world_matrix, x_fov)
+from codermind.params import (FLOAT32_MAX, number, read_clip, read_pixel_offset, to_world_matrix,
+                              x_fov)
+from codermind.sensors._film import FilmMap, check_rigid, origin_of
 
 
 class ConicCamera(mi.Sensor):

@@ -4,7 +4,8 @@ import drjit as dr
 import mitsuba as mi
 
 from codermind.exposed import exposed, scalar, take_float
-from codermind.sensors._film import FilmMap, origin_of, read_clip, read_pixel_offset
+from codermind.params import read_clip, read_pixel_offset
+from codermind.sensors._film import FilmMap, origin_of
 
 
 class TutorialOrthoCamera(mi.Sensor):

@@ -9,7 +9,8 @@ import mitsuba as mi
 import numpy as np
 
 from ..exposed import exposed, scalar
-from ._blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh import BlobMeshError, build_blob_mesh
+from ..params import loose_number
 
 _CENTER = re.compile(r"center(\d+)$")
 
@@ -99,7 +100,7 @@ def blob(props: mi.Properties) -> mi.Mesh:
             </shape>
     """
     centers = _centers(props)
-    radius = _float(props, "radius", None)
+    radius = loose_number(props, "blob", "radius")
     field = str(props.get("field", "tutorial"))
     normals = str(props.get("normals", "exact"))
     to_world = props.get("to_world", mi.ScalarTransform4f())
@@ -113,7 +114,7 @@ def blob(props: mi.Properties) -> mi.Mesh:
     scale = float(sv[0])  # largest stretch: world error <= scale * object-space error
     if radius is None:
         raise ValueError("blob: 'radius' is required")
-    max_error = _float(props, "max_error", None)
+    max_error = loose_number(props, "blob", "max_error")
     if max_error is None:
         max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
     return Blob(props, centers, radius, field, normals, matrix, max_error)
@@ -186,7 +187,7 @@ class Blob(mi.Mesh):
         c_ad, r_ad = exposed(self, "centers"), exposed(self, "radius")
         if not (dr.grad_enabled(c_ad) or dr.grad_enabled(r_ad)):
             return v
-        from ._blobfield import BlobField
+        from ..blobmesh.field import BlobField
         linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
         p = (v - shift) @ np.linalg.inv(linear).T          # object space
         field = BlobField(self.centers, self.radius, self.field)
@@ -322,15 +323,6 @@ def _center_array(props: mi.Properties) -> np.ndarray:
     if flat.size == 0 or flat.size % 3:
         raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got {flat.size}")
     return flat.reshape(-1, 3)
-
-
-def _float(props: mi.Properties, name: str, default):
-    if name not in props:
-        return default
-    try:
-        return float(props.get(name))
-    except (TypeError, ValueError):
-        raise ValueError(f"blob: '{name}' must be a number") from None
 
 
 mi.register_shape("blob", blob)

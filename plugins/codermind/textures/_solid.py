@@ -1,46 +1,16 @@
 """Common part of the solid (3D) noise textures ``perlin``, ``turbulence`` and ``marble``:
-the lookup position (world position through an optional ``to_world``), parameter checks,
-and the two-colour mix ``w * color0 + (1 - w) * color1`` of the tutorial (unclamped)."""
+the lookup position (world position through an optional ``to_world``), the colours and
+turbulence parameters (read by :mod:`codermind.params`), and the two-colour mix
+``w * color0 + (1 - w) * color1`` of the tutorial (unclamped)."""
 
 from __future__ import annotations
-
-import math
 
 import drjit as dr
 import mitsuba as mi
 
 from ..exposed import exposed, scalar_matrix, take_float, take_int
-from ..params import FLOAT32_MAX, number
+from ..params import finite_color, octave_count, positive_float
 from . import _noise
-
-
-
-def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
-    value = number(props, plugin, name, default)
-    if not 0 < value <= FLOAT32_MAX:
-        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0 (in float32), got "
-                         f"{value:g}")
-    return value
-
-
-def finite_color(props: mi.Properties, plugin: str, name: str, default: float) -> mi.Texture:
-    """An unbounded colour texture; a uniform one must be finite in every channel."""
-    texture = props.get_unbounded_texture(name, default)
-    if not texture.is_spatially_varying():
-        si = dr.zeros(mi.SurfaceInteraction3f) if dr.is_jit_v(mi.Float) else \
-            mi.SurfaceInteraction3f()
-        value = [float(dr.slice(c)) if dr.is_jit_v(mi.Float) else float(c)
-                 for c in texture.eval_3(si)]
-        if not all(math.isfinite(v) for v in value):
-            raise ValueError(f"{plugin}: '{name}' must be finite, got {value}")
-    return texture
-
-
-def octave_count(props: mi.Properties, plugin: str, default: int = 9) -> int:
-    value = props.get("octaves", default)
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 64:
-        raise ValueError(f"{plugin}: 'octaves' must be an integer in [1, 64], got {value!r}")
-    return value
 
 
 class SolidTexture(mi.Texture):
@@ -174,9 +144,11 @@ class TurbulenceBase(SolidTexture):
         super().__init__(props, mixes_colors=True)
         self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
         self.octaves = octave_count(props, self.plugin)
+        self.gradient = _noise.read_gradient(props, self.plugin)
 
     def turbulence(self, p: mi.Point3f) -> mi.Float:
-        return _noise.turbulence(p, self.frequency, self.octaves)
+        return _noise.turbulence(p, self.frequency, self.octaves, self.gradient)
 
     def describe(self) -> str:
-        return f"frequency = {self.frequency},\n  octaves = {self.octaves}"
+        return (f"frequency = {self.frequency},\n  octaves = {self.octaves},\n"
+                f"  gradient = {self.gradient}")

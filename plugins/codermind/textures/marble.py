@@ -3,7 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ._solid import TurbulenceBase, positive_float
+from ..params import positive_float
+from ._solid import TurbulenceBase
 
 
 #: The stripe phase is clamped to +-2^23: float32 has no fraction bits beyond, and Dr.Jit's
@@ -43,6 +44,12 @@ class MarbleTexture(TurbulenceBase):
      * - stripe_frequency
        - |float|
        - Frequency :math:`s` of the stripes along :math:`x + y`, per world unit (Default: 0.05)
+
+     * - gradient
+       - |string|
+       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+         ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
+         (Default: ``tutorial``)
 
      * - to_world
        - |transform|

@@ -4,9 +4,9 @@ import drjit as dr
 import mitsuba as mi
 
 from ..exposed import exposed, scalar, take_float
-from ..params import FLOAT32_MAX, number
+from ..params import FLOAT32_MAX, number, positive_float
 from . import _noise
-from ._solid import SolidTexture, positive_float
+from ._solid import SolidTexture
 
 
 class PerlinTexture(SolidTexture):
@@ -28,14 +28,21 @@ class PerlinTexture(SolidTexture):
          (Defaults: 1 and 0, the raw noise). E.g. scale 0.5 and offset 0.5 map the noise
          into about [0, 1] for use as a reflectance. Both are differentiable.
 
+     * - gradient
+       - |string|
+       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+         ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
+         (Default: ``tutorial``)
+
      * - to_world
        - |transform|
        - Placement of the noise in the scene: it is evaluated at
          :math:`\mathbf{p} = \mathtt{to\_world}^{-1}\,\mathbf{x}` for the world position
          :math:`\mathbf{x}` of the shading point (Default: identity)
 
-    A solid (3D) texture: the raw value of Ken Perlin's improved noise (2002, with his
-    permutation table), :math:`\mathrm{noise}(f\,\mathbf{p})`, as a grey value in about
+    A solid (3D) texture: the raw value of the tutorial's Perlin noise (Ken Perlin's
+    improved noise of 2002 with his permutation table and, by default, the tutorial's
+    gradient function), :math:`\mathrm{noise}(f\,\mathbf{p})`, as a grey value in about
     :math:`[-1, 1]`, negative values included, evaluated in single precision (see the
     package README for where float32 stops being accurate). The texture ignores UV
     coordinates. :monosp:`mean()` is ``offset``, the average over space (the noise
@@ -56,6 +63,7 @@ class PerlinTexture(SolidTexture):
     def __init__(self, props: mi.Properties):
         super().__init__(props, mixes_colors=False)
         self.frequency = positive_float(props, self.plugin, "frequency", 1.0)
+        self.gradient = _noise.read_gradient(props, self.plugin)
         self.scale = number(props, self.plugin, "scale", 1.0)
         self.offset = number(props, self.plugin, "offset", 0.0)
         for name in ("scale", "offset"):
@@ -65,13 +73,15 @@ class PerlinTexture(SolidTexture):
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         f = self.frequency
-        return dr.fma(_noise.noise(p.x * f, p.y * f, p.z * f), self.scale, self.offset)
+        return dr.fma(_noise.noise(p.x * f, p.y * f, p.z * f, self.gradient), self.scale,
+                      self.offset)
 
     def mean_weight(self) -> float:
         return scalar(self.offset)
 
     def describe(self) -> str:
-        return f"frequency = {self.frequency},\n  scale = {self.scale},\n  offset = {self.offset}"
+        return (f"frequency = {self.frequency},\n  gradient = {self.gradient},\n"
+                f"  scale = {self.scale},\n  offset = {self.offset}")
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         super().traverse(callback)

@@ -1,0 +1,59 @@
+"""Render a tutorial scene file (versions 1.0, 1.1, 1.3) with the standalone numpy port of the
+tutorial programs, writing OUT.tga (the original's bytes), OUT.png, OUT.exr (linear radiance
+per sub-sample, float32) and OUT.variance.exr (variance of that mean over the Complexity rays).
+--mode strict reproduces the original programs, quirks included; clean removes the quirks that
+are plain bugs (see README). Scene errors print one line "file:line: message" and exit 2."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..args import positive_float, positive_int, seed, tutorial_scene
+
+NAME = "reference"
+HELP = "render a tutorial scene.txt with the standalone port (TGA, PNG, EXR)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", metavar="SCENE.txt", help="tutorial scene file")
+    p.add_argument("-o", "--output", metavar="OUT",
+                   help="output path without extension (default: the scene's name here)")
+    p.add_argument("--mode", choices=("strict", "clean"), default="strict",
+                   help="strict: the original programs (default); clean: quirks removed")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (page 4; default 0)")
+    p.add_argument("--complexity", type=positive_int, metavar="N",
+                   help="rays per sub-sample (page 4; default: the scene's Complexity)")
+    p.add_argument("--exposure", type=positive_float, metavar="E",
+                   help="fixed exposure instead of the page-4 auto exposure (page 2: default 1)")
+    p.add_argument("--workers", type=positive_int, metavar="N",
+                   help="worker processes (default: one per core for large renders); "
+                        "the image does not depend on it")
+
+
+def run(args: argparse.Namespace) -> int:
+    from codermind.errors import CodermindError
+    import codermind_ref as ref
+    from codermind_harness.progress import PortProgress
+
+    scene_path = Path(args.scene)
+    scene = tutorial_scene(scene_path)
+    for warning in scene.warnings:
+        print(f"codermind: warning: {warning}", file=sys.stderr)
+    base = Path(args.output) if args.output else Path.cwd() / scene_path.stem
+    if base.suffix.lower() in (".tga", ".png", ".exr"):
+        base = base.with_suffix("")
+    result = ref.render(scene, args.mode, args.seed, args.complexity, exposure=args.exposure,
+                        workers=args.workers, progress=PortProgress(scene_path.name))
+    for warning in result.warnings[len(scene.warnings):]:     # found while rendering
+        print(f"codermind: warning: {warning}", file=sys.stderr)
+    try:
+        paths = ref.write_outputs(result, base)
+    except OSError as e:
+        raise CodermindError(f"{e.filename or base}: cannot write: {e.strerror or e}") from None
+    exposure = "" if result.exposure is None else f", exposure {result.exposure:.6g}"
+    print(f"wrote {', '.join(str(p) for p in paths.values())} ({result.mode}, page "
+          f"{scene.page}, seed {result.seed}, complexity {result.complexity}{exposure}, "
+          f"{result.seconds:.2f} s)")
+    return 0

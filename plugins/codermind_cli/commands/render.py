@@ -1,0 +1,160 @@
+"""Render a Mitsuba XML scene (built-in plugins and this package's) to a linear EXR and an
+sRGB PNG written side by side, atomically. The samples are rendered in passes with distinct
+seeds and accumulated; Ctrl-C stops after the current pass and writes what is done.
+
+A scene converted from a tutorial scene file (`codermind convert`; it carries a
+codermind-tutorial comment block) goes through the tutorial's image pipeline instead: the
+PNG and TGA hold the tutorial's bytes (exposure, tone curve per sub-sample, sRGB, 2x2 mean,
+calibration strip), the EXR the linear film of sub-samples (2W x 2H on pages 2 and 4)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from ..args import define, exposure as exposure_option, positive_int, seed
+
+NAME = "render"
+HELP = "render a Mitsuba XML scene to EXR + PNG"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene, or the name of a "
+                   "bundled scene (page1 .. page4, garden) when no such file exists here")
+    p.add_argument("-o", "--output", metavar="OUT",
+                   help="output path without extension (OUT.exr and OUT.png); "
+                        "default: the scene's name in the current folder")
+    p.add_argument("--spp", type=positive_int, help="samples per pixel (default: the scene's sampler)")
+    p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb; scalar_rgb for "
+                                     "debugging, cuda_ad_rgb with a GPU)")
+    p.add_argument("--seed", type=seed, default=0, help="base random seed (default 0)")
+    p.add_argument("--pass-spp", type=positive_int, help="samples per pixel per pass (default: from image size)")
+    p.add_argument("-D", "--define", metavar="NAME=VALUE", type=define, action="append",
+                   default=[],
+                   help="set an XML <default> parameter, e.g. -D max_depth=11 -D spp=4 "
+                        "(repeatable)")
+    p.add_argument("--exposure", metavar="probes|render|E", type=exposure_option, default="probes",
+                   help="tutorial scenes, page 4: auto exposure from the probe grid traced "
+                        "through Mitsuba (default, as the tutorial), from the render's own "
+                        "sub-samples, or a fixed E (also page 2)")
+    p.add_argument("--lights", choices=("sum", "sample"),
+                   help="tutorial scenes: 'sum' renders once per light and adds (the "
+                        "tutorial sums its lights at every hit), 'sample' lets Mitsuba pick "
+                        "one light per hit (faster, noisier); default: the scene's block")
+    p.add_argument("--variance", action="store_true",
+                   help="tutorial scenes: also write OUT.variance.exr, the variance of each "
+                        "sub-sample's mean, estimated from >= 16 passes")
+    p.add_argument("--plain", action="store_true",
+                   help="ignore a codermind-tutorial block: plain EXR + sRGB PNG")
+    p.add_argument("--deterministic", action="store_true",
+                   help="bit-identical output for a given seed: runs Dr.Jit on one thread, since "
+                        "parallel film accumulation adds samples in a varying order")
+
+
+def output_base(scene: Path, output: str | None) -> Path:
+    if output is None:
+        return Path.cwd() / scene.stem
+    out = Path(output)
+    return out.with_suffix("") if out.suffix.lower() in (".exr", ".png", ".tga") else out
+
+
+def run(args: argparse.Namespace) -> int:
+    from codermind.errors import CodermindError
+    scene_path = Path(args.scene)
+    if not scene_path.is_file():
+        from codermind.bundled import bundled_scene
+        scene_path = bundled_scene(args.scene) or scene_path
+    if not scene_path.is_file():
+        raise CodermindError(f"{scene_path}: no such scene file")
+
+    defines = dict(args.define)
+    from codermind.tutorial.render import read_settings
+    settings = None if args.plain else read_settings(scene_path)
+
+    from codermind.variants import set_variant
+    set_variant(args.variant)
+    from codermind.scene import load_scene
+    from codermind.render import Progress, render_passes, scene_spp
+    from codermind.imageio import write_exr, write_png_srgb
+
+    scene = load_scene(scene_path, **defines)
+    if not scene.sensors():
+        raise CodermindError(f"{scene_path}: the scene has no sensor to render from")
+    if scene.integrator() is None:
+        raise CodermindError(f"{scene_path}: the scene has no integrator")
+    import drjit as dr
+    threads = dr.thread_count()
+    if args.deterministic:
+        # Only around rendering: Mitsuba's scene loading and EXR writing wait on tasks of
+        # the same pool and deadlock when it has a single thread.
+        dr.set_thread_count(1)
+    spp = args.spp or scene_spp(scene)
+    base = output_base(scene_path, args.output)
+
+    stop = {"requested": False}
+
+    def on_sigint(signum, frame):
+        if stop["requested"]:
+            raise KeyboardInterrupt
+        stop["requested"] = True
+        print("\ncodermind: Ctrl-C: stopping after the current pass (again to abort without "
+              "writing)", file=sys.stderr, flush=True)
+
+    if settings is not None:
+        from codermind.tutorial import render as tutorial_render
+        tutorial_render.check_film(scene, settings, scene_path)
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        if settings is not None:
+            result = tutorial_render.render(
+                scene, settings, spp=spp, seed=args.seed, exposure=args.exposure,
+                lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
+                progress=Progress(spp, label=scene_path.name),
+                should_stop=lambda: stop["requested"])
+        else:
+            result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
+                                   progress=Progress(spp, label=scene_path.name),
+                                   should_stop=lambda: stop["requested"])
+    except RuntimeError as e:   # e.g. a plugin rejecting its input at render time
+        raise CodermindError(f"{scene_path}: rendering failed: {e}") from None
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        dr.set_thread_count(threads)
+
+    if settings is not None:
+        return _finish_tutorial(result, base)
+
+    if result.spp == 0:
+        print("codermind: interrupted before the first pass finished; nothing written",
+              file=sys.stderr)
+        return 130
+    exr, png = base.with_suffix(".exr"), base.with_suffix(".png")
+    write_exr(exr, result.image, result.channel_names)
+    write_png_srgb(png, result.image)
+    if result.interrupted:
+        print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
+              f"finished to {exr} and {png}", file=sys.stderr)
+        return 130
+    print(f"wrote {exr} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
+    return 0
+
+
+def _finish_tutorial(result, base: Path) -> int:
+    from codermind.tutorial.render import write_outputs
+    if result is None:
+        print("codermind: interrupted before the first pass finished; nothing written",
+              file=sys.stderr)
+        return 130
+    paths = write_outputs(result, base)
+    names = ", ".join(str(p) for p in paths)
+    exposure = "" if result.exposure is None else \
+        f", exposure {result.exposure:.6g} ({result.exposure_source})"
+    if result.interrupted:
+        print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
+              f"finished to {names}", file=sys.stderr)
+        return 130
+    print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
+          f"{result.seconds:.2f} s)")
+    return 0
