@@ -44,6 +44,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Top-level modules of the ``harness`` extra (compare, chart, stability need them).
+HARNESS_MODULES = ("matplotlib", "flip_evaluator")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -55,6 +59,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("codermind: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except ModuleNotFoundError as e:
+        if e.name not in HARNESS_MODULES:
+            raise
+        print(f"codermind: error: this command needs {e.name}, from the package's 'harness' "
+              f"extra: pip install 'codermind-mitsuba[harness]'", file=sys.stderr)
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":

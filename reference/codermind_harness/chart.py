@@ -43,8 +43,8 @@ import numpy as np
 from codermind.variants import set_variant
 
 from . import chart_cost, chart_report
-from .chart_data import (FULL, PORT_SEED, QUICK, REF_SEED, ROOT, SCENES, SWEEP_SEED, THRESHOLD,
-                         Config, Point, log, pareto_front)
+from .chart_data import (FULL, PORT_SEED, QUICK, REF_SEED, SCENES, SWEEP_SEED, THRESHOLD,
+                         Config, Point, log, pareto_front, scenes_dir)
 from .sides import Grid, HarnessError, encode_mitsuba, load_mitsuba, parse, port_exposure, twin_of
 
 
@@ -162,7 +162,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
     from codermind.tutorial.render import read_settings
     if name == "garden":
         return chart_garden(cfg)
-    txt, xml = twin_of(ROOT / "scenes" / f"{name}.xml")
+    txt, xml = twin_of(scenes_dir() / f"{name}.xml")
     scene = parse(txt)
     settings = read_settings(xml)
     w, h = scene.width, scene.height
@@ -215,7 +215,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
     floor = None
     if ref_var is not None:
         floor = float(np.mean(ref_var / (np.square(ref_lin) + 0.01)))
-    return {"scene": name, "xml": str(xml.relative_to(ROOT)), "crop": list(rect),
+    return {"scene": name, "xml": f"scenes/{xml.name}", "crop": list(rect),
             "deterministic": det, "exposure": exposure, "reference": ref_desc,
             "reference_seconds": ref_s, "reference_noise_rel_mse": floor,
             "warmup_seconds_median": statistics.median(runner.warmups) if runner.warmups else None,
@@ -231,7 +231,7 @@ def chart_garden(cfg: Config) -> dict:
     from codermind.tutorial.render import render_linear
     from .metrics import flip, rel_mse
     set_variant("llvm_ad_rgb")
-    xml = ROOT / "scenes" / "garden.xml"
+    xml = scenes_dir() / "garden.xml"
     w, h = cfg.garden_size
     t0 = time.perf_counter()
     scene = load_scene(xml, resx=str(w), resy=str(h))

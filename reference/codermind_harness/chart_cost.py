@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .chart_data import PORT_SEED, ROOT, SWEEP_SEED, Config, fit_slope, log
+from .chart_data import PORT_SEED, SWEEP_SEED, Config, fit_slope, log, scenes_dir
 from .sides import parse, twin_of
 
 
@@ -40,7 +40,7 @@ def pixels(cfg: Config) -> list[dict]:
     import tempfile
     from codermind.scene import load_scene
     from codermind.tutorial.render import light_scenes, render_linear
-    txt, xml = twin_of(ROOT / "scenes" / "page4.xml")
+    txt, xml = twin_of(scenes_dir() / "page4.xml")
     scene = parse(txt)
     runs: dict = {}
     with tempfile.TemporaryDirectory() as tmp:

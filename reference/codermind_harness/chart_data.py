@@ -13,6 +13,14 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def scenes_dir() -> Path:
+    """The bundled scenes: the repository's scenes/ or the installed copy (codermind.bundled)."""
+    from codermind.bundled import scenes_dir as find
+    return find()
+
+
 SCENES = ("page1", "page2", "page3", "page4", "garden")
 #: Value used to draw an error of exactly 0 on a log axis (the reference itself).
 ZERO_FLOOR = 1e-10

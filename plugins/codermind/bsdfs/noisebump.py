@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, scalar_matrix, take_float
 from ..textures import _noise
 from ..params import flag, read_float
 
@@ -26,7 +27,8 @@ class NoiseBumpBSDF(mi.BSDF):
 
      * - frequency
        - |float|
-       - Noise frequency :math:`f` in 1/world units (Default: 0.1, the tutorial's)
+       - Noise frequency :math:`f` per world unit (Default: 0.1, the tutorial's, whose
+         scenes are in pixels)
 
      * - gradient
        - |string|
@@ -39,6 +41,11 @@ class NoiseBumpBSDF(mi.BSDF):
        - Placement of the noise: it is evaluated at
          :math:`\mathbf{p} = \mathtt{to\_world}^{-1}\,\mathbf{x}` for the world position
          :math:`\mathbf{x}` (Default: identity)
+
+     * - (traverse)
+       -
+       - ``mi.traverse`` exposes ``bumplevel`` (differentiable), ``frequency`` and
+         ``to_world`` (non-differentiable) and the nested BSDF's parameters.
 
      * - leak_check
        - |boolean|
@@ -178,6 +185,21 @@ class NoiseBumpBSDF(mi.BSDF):
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("nested_bsdf", self.nested, mi.ParamFlags.Differentiable)
+        callback.put("bumplevel", exposed(self, "bumplevel"), mi.ParamFlags.Differentiable)
+        nd = mi.ParamFlags.NonDifferentiable
+        callback.put("frequency", exposed(self, "frequency"), nd)
+        callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
+            mi.ScalarMatrix4f(1.0) if self.identity else self.to_local.inverse().matrix)), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        if not keys or "bumplevel" in keys:
+            take_float(self, self.plugin, "bumplevel", lo=0.0, hi=1.0, keep_array=True)
+        if not keys or "frequency" in keys:
+            take_float(self, self.plugin, "frequency", lo=0.0, open_lo=True)
+        if not keys or "to_world" in keys:
+            to_world = mi.ScalarTransform4f(scalar_matrix(exposed(self, "to_world")))
+            self.identity = False
+            self.to_local = mi.Transform4f(to_world.inverse().matrix)
 
     def to_string(self) -> str:
         return (f"NoiseBumpBSDF[\n  bumplevel = {self.bumplevel},\n"

@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, take_float
 from ..params import FLOAT32_MIN_NORMAL, read_float, read_texture
 
 PAGES = (1, 2, 4)
@@ -52,6 +53,12 @@ class TutorialBSDF(mi.BSDF):
        - |int|
        - Which tutorial program's transport the material follows: 1 or 2 (mirror model)
          or 4 (Fresnel roulette) (Default: 4). Page 1 is page 2 with ``specular`` 0.
+
+    ``mi.traverse`` exposes ``diffuse``, ``specular`` and ``power`` (differentiable; not
+    at ``power`` = 0, where the lobe switches to a constant) and ``reflection``,
+    ``refraction``, ``density`` (page 4 only for the last two; non-differentiable: they
+    also set the probabilities of the sampled mirror and refraction events, whose
+    derivatives ``prb`` does not take).
 
     The material of the Codermind ray-tracing tutorial, written so that Mitsuba's
     built-in :monosp:`path` integrator computes exactly the tutorial's light transport
@@ -225,7 +232,7 @@ class TutorialBSDF(mi.BSDF):
             h = si.wi + wo
             len2 = dr.squared_norm(h)
             cos_h = dr.maximum(h.z * dr.rsqrt(dr.select(len2 > 0, len2, 1.0)), 0.0)
-            blinn = mi.Float(1.0) if self.power == 0 else dr.power(cos_h, self.power)
+            blinn = mi.Float(1.0) if self.power == 0 else dr.power(cos_h, self._power())
             value += self.specular.eval(si, active) * dr.select(len2 > 0, blinn, 0.0)
         return value & (active & (cos_o > 0))
 
@@ -293,9 +300,37 @@ class TutorialBSDF(mi.BSDF):
                                  active: mi.Bool = True) -> mi.Spectrum:
         return self.diffuse.eval(si, active)
 
+    def _power(self):
+        """The Blinn exponent for the kernels: the traversed ``mi.Float`` (gradients
+        included) once ``mi.traverse`` has exposed it, else the float."""
+        return self.__dict__.get("_exposed", {}).get("power", self.power)
+
+    def _scalar_names(self) -> tuple[str, ...]:
+        return ("power", "reflection", "refraction", "density") if self.page == 4 else \
+            ("power", "reflection")
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
         callback.put("specular", self.specular, mi.ParamFlags.Differentiable)
+        # power: differentiable (the kernels use the traversed mi.Float, see _power;
+        # the Python test power == 0 stays on the float). The weights and the density also
+        # set the probabilities of the sampled events, whose derivatives prb does not take
+        # (the tutorial's event weights are not value / pdf): non-differentiable.
+        for name in self._scalar_names():
+            callback.put(name, exposed(self, name), mi.ParamFlags.Differentiable
+                         if name == "power" else mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        name = self.plugin
+        limits = {"power": (0.0, None), "reflection": (0.0, 1.0), "refraction": (0.0, 1.0),
+                  "density": (0.0, None)}
+        for key in self._scalar_names():
+            if not keys or key in keys:
+                take_float(self, name, key, *limits[key])
+        if 0.0 < self.density < FLOAT32_MIN_NORMAL:
+            raise ValueError(f"{name}: 'density' must be 0 (a metal) or at least "
+                             f"{FLOAT32_MIN_NORMAL:.3g} (float32), got {self.density:g}")
+        self.metal = self.density == 0 or (self.reflection == 0 and self.refraction == 0)
 
     def to_string(self) -> str:
         extra = (f",\n  refraction = {self.refraction},\n  density = {self.density}"

@@ -7,6 +7,7 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
+from codermind.exposed import exposed, scalar, take_float
 from codermind.params import FLOAT32_MAX, flag, number
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
@@ -102,6 +103,12 @@ class CubeMap(mi.Emitter):
     the environment are ``2 max(1e5, |p|)`` long; ``sample_ray`` starts rays on that
     sphere) until ``attach_scene(scene)`` is called, which ``codermind render`` and
     ``codermind.scene.load_scene`` do after loading.
+
+    ``mi.traverse`` exposes ``data``, the texels of the six faces as a tensor of shape
+    (6, :math:`S_v`, :math:`S_u`, 3) in the order of FACES (up, down, right, left,
+    forward, backward), rows from :math:`v = 0`, before the decodes; and ``scale``, both
+    differentiable (the sampling distribution is rebuilt, detached, when ``data``
+    changes), and ``exposure`` (non-differentiable). JIT variants only.
 
     RGB and monochromatic variants only.
 
@@ -350,6 +357,48 @@ class CubeMap(mi.Emitter):
 
     def bbox(self) -> mi.ScalarBoundingBox3f:
         return mi.ScalarBoundingBox3f()
+
+    def _texel_tensor(self) -> mi.TensorXf:
+        w, h = int(self.res.x), int(self.res.y)
+        rgbx = np.array(self.data, dtype=np.float32).reshape(6, h, w, 4)
+        return mi.TensorXf(np.ascontiguousarray(rgbx[..., :3]))
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        super().traverse(callback)
+        if not dr.is_jit_v(mi.Float):
+            return
+        callback.put("data", exposed(self, "data", self._texel_tensor),
+                     mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous)
+        callback.put("scale", exposed(self, "scale"), mi.ParamFlags.Differentiable)
+        callback.put("exposure", exposed(self, "exposure"), mi.ParamFlags.NonDifferentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        super().parameters_changed(keys)
+        if not dr.is_jit_v(mi.Float):
+            return
+        if not keys or "scale" in keys:
+            take_float(self, "cubemap", "scale", keep_array=True)
+        if not keys or "exposure" in keys:
+            take_float(self, "cubemap", "exposure", lo=0.0, open_lo=True)
+        if not keys or "data" in keys:
+            tensor = exposed(self, "data")
+            shape = tuple(tensor.shape)
+            if len(shape) != 4 or shape[0] != 6 or shape[3] != 3:
+                raise ValueError(f"cubemap: 'data' must have shape (6, height, width, 3), "
+                                 f"got {shape}")
+            self.res = mi.ScalarVector2u(shape[2], shape[1])
+            # RGB -> RGBx rows by a gather, which keeps the texels' gradients
+            j = dr.arange(mi.UInt32, 4 * shape[0] * shape[1] * shape[2])
+            channel = j % 4
+            self.data = dr.gather(mi.Float, tensor.array, (j // 4) * 3 + channel, channel < 3)
+            if self.mode == "light":
+                texels = np.array(dr.detach(tensor), dtype=np.float64)
+                scale = self.scale
+                self.scale = scalar(scale)        # the weights are computed in numpy
+                try:
+                    self.distr = mi.DiscreteDistribution2D(self._cell_weights(texels))
+                finally:
+                    self.scale = scale
 
     def to_string(self) -> str:
         return (f"CubeMap[\n  mode = {self.mode},\n  faces = {self.names},\n"

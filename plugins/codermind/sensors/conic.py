@@ -4,7 +4,9 @@ import math
 
 import drjit as dr
 import mitsuba as mi
+import numpy as np
 
+from codermind.exposed import exposed, scalar, scalar_matrix, take_float
 from codermind.params import (FLOAT32_MAX, number, read_clip, read_pixel_offset, to_world_matrix,
                               x_fov)
 from codermind.sensors._film import FilmMap, check_rigid, origin_of
@@ -34,10 +36,16 @@ class ConicCamera(mi.Sensor):
        - |string|
        - Alternative to ``fov``: 35 mm equivalent focal length (Default: ``50mm``).
 
+     * - aperture_radius
+       - |float|
+       - ``disc`` lens only: radius of the lens disc in world units, >= 0, finite, as in
+         the built-in :monosp:`thinlens`. 0 gives a pinhole (Default: 0).
+
      * - aperture
        - |float|
-       - Aperture size in world units, >= 0, finite. ``disc``: the radius of the lens disc;
-         ``tutorial``: the side of the square aperture. 0 gives a pinhole (Default: 0).
+       - Aperture size in world units, >= 0, finite. ``tutorial``: the SIDE of the square
+         aperture (the tutorial's ``Dispersion``); ``disc``: the same as
+         ``aperture_radius`` (give one of the two). 0 gives a pinhole (Default: 0).
 
      * - focus_distance
        - |float|
@@ -76,6 +84,13 @@ class ConicCamera(mi.Sensor):
     optical centre (the tutorial's auto-exposure probes); with ``disc``, (0.5, 0.5). A
     ``sample2`` outside [0, 1]^2 extrapolates (the probes reach above the image), unless
     a pixel offset is set, which snaps every position to its pixel's point.
+
+    ``mi.traverse`` exposes (all non-differentiable, as for :monosp:`thinlens`) ``x_fov``,
+    ``to_world``, ``aperture_radius`` (``disc``) or ``aperture`` (``tutorial``),
+    ``focus_distance``, ``near_clip`` and ``far_clip``; ``parameters_changed`` checks them
+    as the constructor does. The projective integrators (``direct_projective``,
+    ``prb_projective``) support only Mitsuba's :monosp:`perspective` camera: with this one
+    they stop with an error saying so.
 
     A Python port of Mitsuba's perspective camera with a thin lens. ``sample_ray`` and
     ``sample_ray_differential`` are implemented (the camera cannot be sampled from the
@@ -126,7 +141,11 @@ class ConicCamera(mi.Sensor):
         if self.lens not in self.LENSES:
             raise ValueError(f"conic: 'lens' must be 'disc' or 'tutorial', got {self.lens!r}")
         self.near_clip, self.far_clip = read_clip(props, "conic")
-        self.aperture = number(props, "conic", "aperture", 0.0)
+        if "aperture_radius" in props and ("aperture" in props or self.lens != "disc"):
+            raise ValueError("conic: 'aperture_radius' (the disc lens's radius, as in "
+                             "thinlens) cannot be combined with 'aperture' or lens 'tutorial'")
+        self.aperture = number(props, "conic", "aperture_radius" if "aperture_radius" in props
+                               else "aperture", 0.0)
         self.focus_distance = number(props, "conic", "focus_distance", self.far_clip)
         if not 0.0 <= self.aperture <= FLOAT32_MAX:
             raise ValueError(f"conic: 'aperture' must be >= 0 and finite (in float32), got "
@@ -226,6 +245,52 @@ class ConicCamera(mi.Sensor):
 
     def bbox(self) -> mi.ScalarBoundingBox3f:
         return mi.ScalarBoundingBox3f(origin_of(self.world_transform()))
+
+    def _aperture_key(self) -> str:
+        return "aperture_radius" if self.lens == "disc" else "aperture"
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        mi.Sensor.traverse(self, callback)
+        nd = mi.ParamFlags.NonDifferentiable
+        callback.put("x_fov", exposed(self, "x_fov"), nd)
+        callback.put("to_world", self.m_to_world, nd)
+        callback.put(self._aperture_key(),
+                     exposed(self, self._aperture_key(), lambda: mi.Float(self.aperture)), nd)
+        for name in ("focus_distance", "near_clip", "far_clip"):
+            callback.put(name, exposed(self, name), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        mi.Sensor.parameters_changed(self, keys)
+        x_fov = take_float(self, "conic", "x_fov", lo=0.0, open_lo=True, hi=180.0)
+        if x_fov == 180.0:
+            raise ValueError("conic: 'x_fov' must be in (0, 180) degrees, got 180")
+        for name in ("focus_distance", "near_clip"):
+            take_float(self, "conic", name, lo=0.0)
+        far = scalar(exposed(self, "far_clip"))
+        if not self.near_clip < far:
+            raise ValueError(f"conic: need 'near_clip' < 'far_clip', got {self.near_clip:g} "
+                             f"and {far:g}")
+        self.far_clip = far
+        self.aperture = take_float(self, "conic", self._aperture_key(), lo=0.0)
+        if self.aperture > 0.0 and self.focus_distance == 0.0:
+            raise ValueError("conic: 'focus_distance' must be > 0 when the aperture is > 0")
+        check_rigid(np.array(scalar_matrix(self.m_to_world), dtype=np.float64), "conic")
+        film = self.film()
+        size = film.size()
+        self.lens_scale = max(self.aperture, self.focus_distance) if self.aperture > 0 else 1.0
+        self.film_map = FilmMap(film, self.film_map.offset, "conic")
+        tan_x = math.tan(math.radians(0.5 * self.x_fov))
+        self.tan_half = mi.ScalarVector2f(tan_x, tan_x * size[1] / size[0])
+        self.pixel_step = mi.ScalarVector2f(2.0 / size[0], 2.0 / size[1]) * self.tan_half
+        self.m_needs_sample_3 = self.aperture > 0.0
+
+    def projection_transform(self):
+        # Called by Mitsuba's projective integrators, which also require the class name
+        # PerspectiveCamera: stop with one line instead of an AttributeError.
+        raise RuntimeError("conic: the projective integrators (direct_projective, "
+                           "prb_projective) support only Mitsuba's 'perspective' camera; use "
+                           "'perspective' (conic with lens 'disc' and no aperture is the same "
+                           "camera) or a non-projective integrator such as 'prb'")
 
     def to_string(self) -> str:
         return (f"ConicCamera[\n  lens = {self.lens},\n  x_fov = {self.x_fov},\n"

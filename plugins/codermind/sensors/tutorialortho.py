@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from codermind.exposed import exposed, scalar, take_float
 from codermind.params import read_clip, read_pixel_offset
 from codermind.sensors._film import FilmMap, origin_of
 
@@ -37,6 +38,9 @@ class TutorialOrthoCamera(mi.Sensor):
          neither (Default: the integrator's random jitter). Use a ``box`` filter, and
          for exact positions a sampler without jitter (``stratified``, ``jitter``
          false): with jitter about 5e-5 of the samples take the neighbour's point.
+
+    ``mi.traverse`` exposes ``to_world``, ``near_clip`` and ``far_clip``
+    (non-differentiable, as for :monosp:`orthographic`).
 
     The built-in :monosp:`orthographic` camera (same rays for the same samples) with a
     clip range that may start at 0 and the fixed sample position of :monosp:`conic`.
@@ -103,6 +107,27 @@ class TutorialOrthoCamera(mi.Sensor):
         ray.d_x = ray.d_y = ray.d
         ray.has_differentials = True
         return ray, weight
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        mi.Sensor.traverse(self, callback)
+        nd = mi.ParamFlags.NonDifferentiable
+        callback.put("to_world", self.m_to_world, nd)
+        for name in ("near_clip", "far_clip"):
+            callback.put(name, exposed(self, name), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        mi.Sensor.parameters_changed(self, keys)
+        take_float(self, "tutorialortho", "near_clip", lo=0.0)
+        far = scalar(exposed(self, "far_clip"))
+        if not self.near_clip < far:
+            raise ValueError(f"tutorialortho: need 'near_clip' < 'far_clip', got "
+                             f"{self.near_clip:g} and {far:g}")
+        self.far_clip = far
+        film = self.film()
+        size = film.size()
+        self.film_map = FilmMap(film, self.film_map.offset, "tutorialortho")
+        self.inv_aspect = size[1] / size[0]
+        self.pixel_step = mi.ScalarVector2f(2.0 / size[0], 2.0 * self.inv_aspect / size[1])
 
     def bbox(self) -> mi.ScalarBoundingBox3f:
         return mi.ScalarBoundingBox3f(origin_of(self.world_transform()))

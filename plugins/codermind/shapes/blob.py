@@ -4,9 +4,11 @@ import math
 import re
 import time
 
+import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..exposed import exposed, scalar
 from ..blobmesh import BlobMeshError, build_blob_mesh
 from ..params import loose_number
 
@@ -25,6 +27,11 @@ def blob(props: mi.Properties) -> mi.Mesh:
      * - center0, center1, ...
        - |point|
        - Source centres :math:`c_i`, any number, numbered from 0 without gaps.
+
+     * - centers
+       - |string|
+       - Alternative to ``center0..``: all centres as 3N numbers ``x0 y0 z0 x1 y1 z1 ...``
+         (spaces or commas; in object space, before ``to_world``).
 
      * - radius
        - |float|
@@ -62,6 +69,15 @@ def blob(props: mi.Properties) -> mi.Mesh:
        -
        - As any Mitsuba mesh: a nested BSDF, emitter or sensor, ``interior`` /
          ``exterior`` media, ``face_normals``, ``flip_normals``.
+
+    ``mi.traverse`` exposes ``centers`` (a flat ``mi.Float`` of 3N numbers, object
+    space) and ``radius``, both differentiable, and ``max_error``; changing any of them
+    re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
+    too). With gradients enabled on the centres or the radius, the vertex positions carry
+    their derivatives by the implicit function theorem (vertex normals do not; on the
+    ``tutorial`` field's creases, the zone spheres where the field has a kink, a vertex
+    also stays on its crease). The mesh's own buffers
+    (``vertex_positions``, ...) are exposed as for any mesh.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
     isosurface; triangles where the measured error exceeds ``max_error`` are split by
@@ -101,6 +117,15 @@ def blob(props: mi.Properties) -> mi.Mesh:
     max_error = loose_number(props, "blob", "max_error")
     if max_error is None:
         max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
+    return Blob(props, centers, radius, field, normals, matrix, max_error)
+
+
+def _mesh_arrays(centers: np.ndarray, radius: float, field: str, normals: str,
+                 matrix: np.ndarray, max_error: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World-space vertices, faces and vertex normals (possibly empty) of the blob."""
+    linear = matrix[:3, :3]
+    scale = float(np.linalg.svd(linear, compute_uv=False)[0])
     t0 = time.perf_counter()
     try:
         mesh = build_blob_mesh(centers, radius, field, max_error / scale, normals=normals,
@@ -127,23 +152,143 @@ def blob(props: mi.Properties) -> mi.Mesh:
         mi.Log(mi.LogLevel.Warn, f"blob: the surface joins center{i} and center{j} by a neck "
                                  f"thinner than the mesh resolution, which the mesh lost: lower "
                                  f"max_error (cell size {mesh.info['cell_size'] * scale:.3g})")
+    return v, f, n
 
-    out = mi.Mesh(props.id() or "blob", len(v), len(f), props, has_vertex_normals=len(n) > 0)
-    params = mi.traverse(out)
 
-    def buffer(key: str, a: np.ndarray, dtype) -> None:
-        # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
-        params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
+class Blob(mi.Mesh):
+    """The blob's triangle mesh. Mitsuba 3.9.1 cannot subclass ``mi.Shape`` from Python,
+    but it can subclass ``mi.Mesh``: the object keeps the blob's own parameters and
+    re-tessellates itself in ``parameters_changed`` (the mesh's buffers may change size;
+    the scene, notified after the shape, rebuilds its acceleration structure)."""
 
-    buffer("vertex_positions", v, np.float32)
-    buffer("faces", f, np.uint32)
-    if len(n):  # set in the same update as the positions, or Mitsuba recomputes them
-        buffer("vertex_normals", n, np.float32)
-    params.update()
-    return out
+    def __init__(self, props: mi.Properties, centers: np.ndarray, radius: float, field: str,
+                 normals: str, matrix: np.ndarray, max_error: float):
+        v, f, n = _mesh_arrays(centers, radius, field, normals, matrix, max_error)
+        super().__init__(props.id() or "blob", len(v), len(f), props,
+                         has_vertex_normals=normals != "flat")
+        self.field, self.normals, self.matrix = field, normals, matrix
+        self.centers, self.radius, self.max_error = centers, radius, max_error
+        self._set_buffers(v, f, n)
+
+    def _attached(self, v: np.ndarray):
+        """World vertices ``v``, with the derivatives with respect to the centres and the
+        radius attached when either has gradients enabled (else ``v`` itself).
+
+        A vertex p lies on F(p; c, R) = 1; moved along the field's gradient to stay on it
+        (implicit function theorem), dp = -(dF/dc . dc + dF/dR dR) grad_p F / |grad_p F|^2,
+        with dF/dc_i = -g_i (g_i: source i's term of grad_p F) and
+        dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a crease of the zone field (a
+        zone sphere x_i = 10/k, where F has a kink) also keeps x_i = 10/k: dp is then the
+        least-norm motion meeting both constraints. In world space dp is mapped by
+        to_world's linear part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
+        gradients through the shading normal)."""
+        if not dr.is_diff_v(mi.Float):
+            return v
+        c_ad, r_ad = exposed(self, "centers"), exposed(self, "radius")
+        if not (dr.grad_enabled(c_ad) or dr.grad_enabled(r_ad)):
+            return v
+        from ..blobmesh.field import BlobField
+        linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
+        p = (v - shift) @ np.linalg.inv(linear).T          # object space
+        field = BlobField(self.centers, self.radius, self.field)
+        dc = c_ad - dr.detach(c_ad)                        # 0, carrying dc's gradients
+        dr_ = r_ad - dr.detach(r_ad)
+        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+        grad = np.zeros_like(p)
+        dfdr = np.zeros(len(p))
+        s1 = mi.Float(0.0)                                 # -(dF/dtheta . dtheta)
+        s2 = mi.Float(0.0)                                 # the crease's x_i constraint
+        crease = np.full(len(p), -1)
+        normal2 = np.zeros_like(p)                         # grad_p x_i of that crease
+        for i, c in enumerate(field.centers):
+            x = field.sqdist(p, i)
+            df = field.df(x)                               # one-sided on a crease
+            g = (2.0 * field.inv_r2) * df[:, None] * (p - c)
+            grad += g
+            dfdr += df * (-2.0 * x / field.radius)
+            dc_i = [dr.gather(mi.Float, dc, 3 * i + axis) for axis in range(3)]
+            s1 += sum(f32(g[:, axis]) * dc_i[axis] for axis in range(3))
+            if field.kind == "tutorial":
+                # on a zone sphere x_i = 10/k the field has a kink; the vertex stays on the
+                # crease: also x_i(p + dp; c + dc, R + dR) = 10/k
+                k = 10.0 / np.maximum(x, 1e-30)
+                j = np.rint(k)
+                at = (np.abs(k - j) <= 1e-9 * j) & (j >= 1) & (j <= 9) & (crease < 0)
+                if at.any():
+                    crease[at] = i
+                    a2 = (2.0 * field.inv_r2) * (p - c)
+                    normal2[at] = a2[at]
+                    rhs = sum(f32(np.where(at, a2[:, axis], 0.0)) * dc_i[axis]
+                              for axis in range(3))
+                    s2 += rhs + f32(np.where(at, 2.0 * x / field.radius, 0.0)) * dr_
+        s1 -= f32(dfdr) * dr_
+        # dp = u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
+        g2 = np.maximum((grad * grad).sum(1), 1e-300)
+        u1, u2 = grad / g2[:, None], np.zeros_like(p)
+        on = crease >= 0
+        if on.any():
+            a, b = grad[on], normal2[on]
+            m11, m12, m22 = (a * a).sum(1), (a * b).sum(1), (b * b).sum(1)
+            det = m11 * m22 - m12 * m12
+            ok = det > 1e-6 * m11 * m22                    # not tangent (one sphere)
+            inv11, inv12, inv22 = m22 / np.where(ok, det, 1), -m12 / np.where(ok, det, 1), \
+                m11 / np.where(ok, det, 1)
+            w1 = a * inv11[:, None] + b * inv12[:, None]
+            w2 = a * inv12[:, None] + b * inv22[:, None]
+            idx = np.flatnonzero(on)[ok]
+            u1[idx], u2[idx] = w1[ok], w2[ok]
+        u1, u2 = u1 @ linear.T, u2 @ linear.T
+        moved = [f32(v[:, k]) + f32(u1[:, k]) * s1 + f32(u2[:, k]) * s2 for k in range(3)]
+        return dr.ravel(mi.Point3f(*moved))
+
+    def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
+        params = mi.traverse(self)
+
+        def buffer(key: str, a, dtype) -> None:
+            if dr.is_array_v(a):                            # AD-attached positions
+                params[key] = a
+                return
+            # the buffer types differ between variants (mi.Float is a scalar in scalar_rgb)
+            params[key] = type(params[key])(np.ascontiguousarray(a, dtype=dtype).ravel())
+
+        buffer("vertex_positions", v, np.float32)
+        buffer("faces", f, np.uint32)
+        if len(n):  # set in the same update as the positions, or Mitsuba recomputes them
+            buffer("vertex_normals", n, np.float32)
+        params.update()
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        super().traverse(callback)
+        nd = mi.ParamFlags.NonDifferentiable
+        geometry = mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous
+        if dr.is_jit_v(mi.Float):     # (a scalar variant has no array type for them)
+            callback.put("centers", exposed(self, "centers", lambda: mi.Float(
+                np.ascontiguousarray(self.centers, dtype=np.float32).ravel())), geometry)
+        callback.put("radius", exposed(self, "radius"), geometry if dr.is_jit_v(mi.Float) else nd)
+        callback.put("max_error", exposed(self, "max_error"), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        own = [k for k in ("centers", "radius", "max_error") if k in keys]
+        if own:
+            flat = np.array(dr.detach(exposed(self, "centers")) if "centers" in keys
+                            else self.centers, dtype=np.float64).ravel()
+            if flat.size == 0 or flat.size % 3:
+                raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got "
+                                 f"{flat.size}")
+            radius = scalar(exposed(self, "radius"))
+            max_error = scalar(exposed(self, "max_error"))
+            v, f, n = _mesh_arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
+                                   self.matrix, max_error)
+            self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
+            self._set_buffers(self._attached(v), f, n)
+        rest = [k for k in keys if k not in own]
+        if rest or not keys:
+            super().parameters_changed(rest)
 
 
 def _centers(props: mi.Properties) -> np.ndarray:
+    if "centers" in props:
+        return _center_array(props)
     found = {}
     for key in props.keys():
         m = _CENTER.match(key)
@@ -163,6 +308,21 @@ def _centers(props: mi.Properties) -> np.ndarray:
         except (TypeError, IndexError):
             raise ValueError(f"blob: '{found[i]}' must be a point") from None
     return np.array(out)
+
+
+def _center_array(props: mi.Properties) -> np.ndarray:
+    """``centers``: 3N numbers x0 y0 z0 x1 ... (a string, separated by spaces or commas)."""
+    if any(_CENTER.match(key) for key in props.keys()):
+        raise ValueError("blob: give either 'centers' or 'center0', 'center1', ..., not both")
+    value = props.get("centers")
+    try:
+        flat = np.array([float(x) for x in str(value).replace(",", " ").split()])
+    except ValueError:
+        raise ValueError(f"blob: 'centers' must be 3N numbers (x0 y0 z0 x1 ...), got "
+                         f"{value!r}") from None
+    if flat.size == 0 or flat.size % 3:
+        raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got {flat.size}")
+    return flat.reshape(-1, 3)
 
 
 mi.register_shape("blob", blob)

@@ -5,8 +5,10 @@ turbulence parameters (read by :mod:`codermind.params`), and the two-colour mix
 
 from __future__ import annotations
 
+import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, scalar_matrix, take_float, take_int
 from ..params import finite_color, octave_count, positive_float
 from . import _noise
 
@@ -62,6 +64,28 @@ class SolidTexture(mi.Texture):
             return mi.Color3f(w)
         return w * self.color0.eval_3(si, active) + (1.0 - w) * self.color1.eval_3(si, active)
 
+    def highest_frequency(self) -> float:
+        """Highest spatial frequency of ``weight`` (cycles of the noise lattice per unit)."""
+        return float(self.frequency) * getattr(self, "octaves", 1)
+
+    def eval_1_grad(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Vector2f:
+        """Derivatives of ``eval_1`` along the surface's u and v (what the built-in
+        ``bumpmap`` needs): the weight's 3D gradient, by central differences with a step
+        of 1/100 of the highest frequency's lattice cell (the noise is C2), dotted with
+        ``dp_du`` and ``dp_dv``. The gradients of textured colours are ignored."""
+        p = self.position(si)
+        h = 0.01 / self.highest_frequency()
+        grad = []
+        for axis in range(3):
+            step = mi.Vector3f(*[h if a == axis else 0.0 for a in range(3)])
+            grad.append((self.weight(p + step) - self.weight(p - step)) * (0.5 / h))
+        g = mi.Vector3f(*grad)
+        if not self.identity:       # d/dx w(M x) = M^T grad w
+            g = _transposed(self.to_local, g)
+        if self.mixes_colors:
+            g = g * (self.color0.eval_1(si, active) - self.color1.eval_1(si, active))
+        return mi.Vector2f(dr.dot(g, si.dp_du), dr.dot(g, si.dp_dv))
+
     def mean(self) -> float:
         w = self.mean_weight()
         if not self.mixes_colors:
@@ -71,16 +95,45 @@ class SolidTexture(mi.Texture):
     def is_spatially_varying(self) -> bool:
         return True
 
+    #: Python-float parameters exposed to ``mi.traverse`` (non-differentiable: the noise
+    #: lattice makes the texture discontinuous in them), each > 0.
+    exposed_floats: tuple[str, ...] = ("frequency",)
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         if self.mixes_colors:
             callback.put("color0", self.color0, mi.ParamFlags.Differentiable)
             callback.put("color1", self.color1, mi.ParamFlags.Differentiable)
+        nd = mi.ParamFlags.NonDifferentiable
+        for name in self.exposed_floats:
+            callback.put(name, exposed(self, name), nd)
+        if hasattr(self, "octaves"):
+            callback.put("octaves", exposed(self, "octaves"), nd)
+        callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
+            mi.ScalarMatrix4f(1.0) if self.identity else self.to_world.matrix)), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        for name in self.exposed_floats:
+            if not keys or name in keys:
+                take_float(self, self.plugin, name, lo=0.0, open_lo=True)
+        if hasattr(self, "octaves") and (not keys or "octaves" in keys):
+            take_int(self, self.plugin, "octaves", 1, 64)
+        if not keys or "to_world" in keys:
+            matrix = scalar_matrix(exposed(self, "to_world"))
+            self.identity = False
+            self.to_world = mi.ScalarTransform4f(matrix)
+            self.to_local = mi.Transform4f(self.to_world.inverse().matrix)
 
     def to_string(self) -> str:
         colors = (f",\n  color0 = {self.color0},\n  color1 = {self.color1}"
                   if self.mixes_colors else "")
         placement = "" if self.identity else f",\n  to_world = {self.to_world.matrix}"
         return f"{type(self).__name__}[\n  {self.describe()}{placement}{colors}\n]"
+
+
+def _transposed(to_local: mi.Transform4f, g: mi.Vector3f) -> mi.Vector3f:
+    """The transpose of the linear part of ``to_local`` applied to ``g``."""
+    m = to_local.matrix
+    return mi.Vector3f(*[m[0][j] * g.x + m[1][j] * g.y + m[2][j] * g.z for j in range(3)])
 
 
 class TurbulenceBase(SolidTexture):

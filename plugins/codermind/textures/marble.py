@@ -33,7 +33,9 @@ class MarbleTexture(TurbulenceBase):
 
      * - frequency
        - |float|
-       - Base frequency :math:`f` of the turbulence in 1/world units (Default: 0.05)
+       - Base frequency :math:`f` of the turbulence per world unit (Default: 0.05, the
+         tutorial's, whose scenes are in pixels: a metre-scale scene needs about 100
+         times more)
 
      * - octaves
        - |int|
@@ -41,7 +43,7 @@ class MarbleTexture(TurbulenceBase):
 
      * - stripe_frequency
        - |float|
-       - Frequency :math:`s` of the stripes along :math:`x + y` (Default: 0.05)
+       - Frequency :math:`s` of the stripes along :math:`x + y`, per world unit (Default: 0.05)
 
      * - gradient
        - |string|
@@ -86,6 +88,8 @@ class MarbleTexture(TurbulenceBase):
         super().__init__(props)
         self.stripe_frequency = positive_float(props, self.plugin, "stripe_frequency", 0.05)
 
+    exposed_floats = ("frequency", "stripe_frequency")
+
     def weight(self, p: mi.Point3f) -> mi.Float:
         t = self.turbulence(p)
         phase = dr.clip(dr.fma(p.x + p.y, self.stripe_frequency, t), -PHASE_LIMIT, PHASE_LIMIT)
@@ -93,6 +97,9 @@ class MarbleTexture(TurbulenceBase):
 
     def mean_weight(self) -> float:
         return 0.5
+
+    def highest_frequency(self) -> float:
+        return max(super().highest_frequency(), float(self.stripe_frequency))
 
     def describe(self) -> str:
         return f"{super().describe()},\n  stripe_frequency = {self.stripe_frequency}"

@@ -1,9 +1,11 @@
 from __future__ import annotations  # Delayed parsing of type annotations
 
+import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, scalar, take_float
+from ..params import FLOAT32_MAX, number, positive_float
 from . import _noise
-from ..params import positive_float
 from ._solid import SolidTexture
 
 
@@ -18,7 +20,13 @@ class PerlinTexture(SolidTexture):
 
      * - frequency
        - |float|
-       - Noise frequency :math:`f` in 1/world units (Default: 1)
+       - Noise frequency :math:`f` per world unit (Default: 1)
+
+     * - scale, offset
+       - |float|
+       - The texture returns :math:`\mathtt{scale}\cdot\mathrm{noise} + \mathtt{offset}`
+         (Defaults: 1 and 0, the raw noise). E.g. scale 0.5 and offset 0.5 map the noise
+         into about [0, 1] for use as a reflectance. Both are differentiable.
 
      * - gradient
        - |string|
@@ -37,7 +45,9 @@ class PerlinTexture(SolidTexture):
     gradient function), :math:`\mathrm{noise}(f\,\mathbf{p})`, as a grey value in about
     :math:`[-1, 1]`, negative values included, evaluated in single precision (see the
     package README for where float32 stops being accurate). The texture ignores UV
-    coordinates. :monosp:`mean()` is 0, the average of the noise over space.
+    coordinates. :monosp:`mean()` is ``offset``, the average over space (the noise
+    averages 0). Parameters exposed to ``mi.traverse``: ``frequency``, ``to_world``
+    (non-differentiable), ``scale`` and ``offset`` (differentiable).
 
     .. tabs::
 
@@ -54,16 +64,35 @@ class PerlinTexture(SolidTexture):
         super().__init__(props, mixes_colors=False)
         self.frequency = positive_float(props, self.plugin, "frequency", 1.0)
         self.gradient = _noise.read_gradient(props, self.plugin)
+        self.scale = number(props, self.plugin, "scale", 1.0)
+        self.offset = number(props, self.plugin, "offset", 0.0)
+        for name in ("scale", "offset"):
+            if not abs(getattr(self, name)) <= FLOAT32_MAX:
+                raise ValueError(f"{self.plugin}: '{name}' must be finite (in float32), got "
+                                 f"{getattr(self, name):g}")
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         f = self.frequency
-        return _noise.noise(p.x * f, p.y * f, p.z * f, self.gradient)
+        return dr.fma(_noise.noise(p.x * f, p.y * f, p.z * f, self.gradient), self.scale,
+                      self.offset)
 
     def mean_weight(self) -> float:
-        return 0.0
+        return scalar(self.offset)
 
     def describe(self) -> str:
-        return f"frequency = {self.frequency},\n  gradient = {self.gradient}"
+        return (f"frequency = {self.frequency},\n  gradient = {self.gradient},\n"
+                f"  scale = {self.scale},\n  offset = {self.offset}")
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        super().traverse(callback)
+        callback.put("scale", exposed(self, "scale"), mi.ParamFlags.Differentiable)
+        callback.put("offset", exposed(self, "offset"), mi.ParamFlags.Differentiable)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        super().parameters_changed(keys)
+        for name in ("scale", "offset"):
+            if not keys or name in keys:
+                take_float(self, self.plugin, name, keep_array=True)
 
 
 mi.register_texture("perlin", lambda props, cls=PerlinTexture: cls(props))

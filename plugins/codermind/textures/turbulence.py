@@ -26,7 +26,8 @@ class TurbulenceTexture(TurbulenceBase):
 
      * - frequency
        - |float|
-       - Base frequency :math:`f` in 1/world units (Default: 0.05, the tutorial's)
+       - Base frequency :math:`f` per world unit (Default: 0.05, the tutorial's, whose
+         scenes are in pixels: a metre-scale scene needs about 100 times more)
 
      * - octaves
        - |int|

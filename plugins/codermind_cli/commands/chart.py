@@ -28,10 +28,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
                         "(N worker processes here); default: this machine; one point per task, the "
                         "cost-scaling experiments stay here")
+    p.add_argument("--scenes", metavar="DIR",
+                   help="folder of the bundled scenes (default: the repository's scenes/, "
+                        "or the copy installed with the package)")
 
 
 def run(args: argparse.Namespace) -> int:
+    import os
     from codermind.errors import CodermindError
+    if args.scenes is not None:
+        if not (Path(args.scenes) / "page1.xml").is_file():
+            raise CodermindError(f"--scenes {args.scenes}: not a folder of the bundled "
+                                 f"scenes (no page1.xml)")
+        os.environ["CODERMIND_SCENES"] = str(Path(args.scenes).resolve())
     from codermind_harness import chart
     from codermind_harness.cluster import open_cluster
     from codermind_harness.sides import HarnessError

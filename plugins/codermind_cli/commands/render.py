@@ -21,7 +21,8 @@ HELP = "render a Mitsuba XML scene to EXR + PNG"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene")
+    p.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene, or the name of a "
+                   "bundled scene (page1 .. page4, garden) when no such file exists here")
     p.add_argument("-o", "--output", metavar="OUT",
                    help="output path without extension (OUT.exr and OUT.png); "
                         "default: the scene's name in the current folder")
@@ -62,6 +63,9 @@ def output_base(scene: Path, output: str | None) -> Path:
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
     scene_path = Path(args.scene)
+    if not scene_path.is_file():
+        from codermind.bundled import bundled_scene
+        scene_path = bundled_scene(args.scene) or scene_path
     if not scene_path.is_file():
         raise CodermindError(f"{scene_path}: no such scene file")
 

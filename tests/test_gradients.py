@@ -1,0 +1,220 @@
+"""Differentiable parameters (issue 15): the gradient ``prb`` computes through each plugin
+(reverse mode, ``dr.backward``) of the mean pixel value, along a direction, against
+central finite differences of renders at the same seed. Evidence: Mitsuba's own AD
+integrator against plain differences of its own primal renders (a check that the
+plugins' parameters are attached to the AD graph and carry the right derivative, not
+of the renderer). Small renders: 12x12 pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from test_traverse import _faces
+
+SIZE, SPP = 12, 32
+
+
+def _scene(mi, obj_bsdf=None, emitters=None):
+    # direct light only (max_depth 2) from a point light: the estimates vary only with the
+    # pixel jitter, so the adjoint pass (another seed, as Mitsuba requires) and the primal
+    # renders of the differences agree closely
+    d = {"type": "scene", "integrator": {"type": "prb", "max_depth": 2},
+         "sensor": {"type": "perspective", "fov": 40, "to_world": mi.ScalarTransform4f()
+                    .look_at([0, 0, 4], [0, 0, 0], [0, 1, 0]),
+                    "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE,
+                             "rfilter": {"type": "box"}},
+                    "sampler": {"type": "independent"}},
+         "obj": {"type": "sphere", "bsdf": obj_bsdf or {"type": "diffuse"}}}
+    d.update(emitters or {"light": {"type": "point", "position": [2, 2, 3],
+                                    "intensity": {"type": "rgb", "value": 15.0}}})
+    return d
+
+
+def _tex(kind, **extra):
+    return {"type": "diffuse", "reflectance": {"type": kind, **{"frequency": 2.0, **extra}}}
+
+
+SCENES = {
+    "turbulence": lambda mi: _scene(mi, _tex("turbulence", octaves=3, color0={
+        "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
+    "marble": lambda mi: _scene(mi, _tex("marble", octaves=3, color0={
+        "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
+    "perlin": lambda mi: _scene(mi, _tex("perlin", scale=0.4, offset=0.5, frequency=0.4)),
+    "noisebump": lambda mi: _scene(mi, {"type": "noisebump", "bumplevel": 0.4,
+                                        "frequency": 2.0, "nested": {
+                                            "type": "tutorial", "page": 2,
+                                            "diffuse": {"type": "rgb", "value": 0.5},
+                                            "specular": {"type": "rgb", "value": 0.5},
+                                            "power": 20.0}}),
+    "tutorial": lambda mi: _scene(mi, {"type": "tutorial", "page": 2,
+                                       "diffuse": {"type": "rgb", "value": 0.5},
+                                       "specular": {"type": "rgb", "value": 0.4},
+                                       "power": 10.0}),
+    "tutorialpoint": lambda mi: _scene(mi, emitters={"light": {
+        "type": "tutorialpoint", "position": [2, 2, 3],
+        "intensity": {"type": "rgb", "value": 15.0}}}),
+    "cubemap": lambda mi: _scene(mi, emitters={"env": {"type": "cubemap", **_faces(mi)}}),
+}
+
+CASES = [
+    ("turbulence", "obj.bsdf.reflectance.color0.value"),
+    ("marble", "obj.bsdf.reflectance.color1.value"),
+    ("perlin", "obj.bsdf.reflectance.scale"),
+    ("perlin", "obj.bsdf.reflectance.offset"),
+    ("noisebump", "obj.bsdf.bumplevel"),
+    ("tutorial", "obj.bsdf.diffuse.value"),
+    ("tutorial", "obj.bsdf.specular.value"),
+    ("tutorial", "obj.bsdf.power"),
+    ("tutorialpoint", "light.intensity.value"),
+    ("cubemap", "env.scale"),
+    ("cubemap", "env.data"),
+]
+
+
+def _direction(mi, value):
+    """A fixed direction in the parameter's space, the parameter's shape."""
+    import drjit as dr
+    n = dr.width(value) if not isinstance(value, mi.TensorXf) else value.array.shape[0]
+    d = np.random.default_rng(7).uniform(0.5, 1.0, n).astype(np.float32)
+    if isinstance(value, mi.TensorXf):
+        return mi.TensorXf(d.reshape(value.shape))
+    if dr.size_v(type(value)) == 3:       # a colour
+        return type(value)(*[float(x) for x in d[:1]] * 3) if n == 1 else type(value)(d)
+    return type(value)(d)
+
+
+@pytest.mark.parametrize("name,key", CASES, ids=[f"{n}-{k.split('.', 1)[1]}"
+                                                 for n, k in CASES])
+def test_gradient_matches_finite_differences(llvm, name, key):
+    import drjit as dr
+    mi = llvm
+    scene = mi.load_dict(SCENES[name](mi))
+    params = mi.traverse(scene)
+    x0 = type(params[key])(params[key])
+    d = _direction(mi, x0)
+
+    def loss(value):
+        params[key] = value
+        params.update()
+        return float(dr.mean(mi.render(scene, params, spp=SPP, seed=1).array)[0])
+
+    h = 1e-2
+    fd = (loss(x0 + h * d) - loss(x0 - h * d)) / (2 * h)
+
+    params[key] = type(x0)(x0)
+    dr.enable_grad(params[key])
+    params.update()
+    image = mi.render(scene, params, spp=SPP, seed=1, seed_grad=2, spp_grad=SPP)
+    dr.backward(dr.mean(image.array))
+    g = dr.grad(params[key])
+    ad = float(np.sum(np.array(g, dtype=np.float64) * np.array(d, dtype=np.float64)))
+    print(f"{key}: AD {ad:.5g}, central difference {fd:.5g}")   # shown with pytest -s
+    assert abs(fd) > 1e-4, "the parameter does not affect the image"
+    assert ad == pytest.approx(fd, rel=0.05), (ad, fd)
+
+
+# -- the blob: derivatives of the mesh with respect to its centres and radius -----------
+
+def _blob_scene(mi, field="tutorial", normals="flat", eye=2.0, fov=15):
+    return {"type": "scene", "integrator": {"type": "prb", "max_depth": 2},
+            "sensor": {"type": "perspective", "fov": fov, "to_world": mi.ScalarTransform4f()
+                       .look_at([0, 0, eye], [0, 0, 0], [0, 1, 0]),
+                       "film": {"type": "hdrfilm", "width": 24, "height": 24,
+                                "rfilter": {"type": "box"}}},
+            "obj": {"type": "blob", "centers": "-0.6 0 0  0.6 0.1 0", "radius": 0.8,
+                    "max_error": 0.002, "field": field, "normals": normals,
+                    "bsdf": {"type": "diffuse"}},
+            "light": {"type": "point", "position": [2, 2, 3], "intensity": 15.0}}
+
+
+@pytest.mark.parametrize("field", ["exact", "tutorial"])
+@pytest.mark.parametrize("key,delta", [("obj.radius", [1e-3]),
+                                       ("obj.centers", [1e-3, 2e-3, -1e-3, 0, -1e-3, 0])])
+def test_blob_vertices_follow_the_surface_to_first_order(llvm, key, delta, field):
+    """Closed form: a vertex p on F(p; c, R) = 1 moved by the attached derivative dp
+    (implicit function theorem) lies on the surface of the changed parameters up to
+    O(delta^2): |F - 1| falls from ~|dF/dtheta| delta (not moved) to below 1e-2 of that
+    and falls 4x when delta halves, for the smooth ``exact`` field and the zone field,
+    whose crease vertices (on its zone spheres, cut into the mesh) must also stay on
+    their crease."""
+    import drjit as dr
+    from codermind.blobmesh.field import BlobField
+    mi = llvm
+    scene = mi.load_dict({"type": "scene", "obj": _blob_scene(mi, field)["obj"]})
+    params = mi.traverse(scene)
+    centers = np.array(params["obj.centers"], dtype=np.float64).reshape(-1, 3)
+    radius = float(params["obj.radius"][0])
+    dr.enable_grad(params[key])
+    params.update()
+    positions = params["obj.vertex_positions"]
+    dr.set_grad(params[key], type(params[key])(delta))
+    dr.forward_to(positions)
+    v = np.array(dr.detach(positions), dtype=np.float64).reshape(-1, 3)
+    dv = np.array(dr.grad(positions), dtype=np.float64).reshape(-1, 3)
+
+    def residual(scale):
+        """|F - 1| at the vertices moved by scale * delta, for parameters changed by it."""
+        c = centers + (0 if key == "obj.radius" else scale * np.reshape(delta, (-1, 3)))
+        r = radius + (scale * delta[0] if key == "obj.radius" else 0)
+        blob = BlobField(c, r, field)
+        return np.abs(blob.value(v) - 1), np.abs(blob.value(v + scale * dv) - 1)
+
+    before, after = residual(1.0)
+    _, after_half = residual(0.5)
+    assert np.median(before) > 1e-3
+    assert after.max() < 0.01 * before.max()
+    # what remains is second order: half the step leaves a quarter (float32 floor ~1e-6)
+    assert after_half.max() < 0.3 * after.max() + 1e-6
+    if field == "tutorial":     # crease vertices stay on their zone sphere x_i = 10/k
+        old = BlobField(centers, radius, field)
+
+        def off_crease(scale, i, on, j):
+            new = BlobField(
+                centers + (0 if key == "obj.radius" else scale * np.reshape(delta, (-1, 3))),
+                radius + (scale * delta[0] if key == "obj.radius" else 0), field)
+            return (np.abs(new.sqdist(v, i)[on] - 10.0 / j[on]).max(),
+                    np.abs(new.sqdist(v + scale * dv, i)[on] - 10.0 / j[on]).max())
+
+        checked = 0
+        for i in range(len(centers)):
+            k = 10.0 / old.sqdist(v, i)
+            j = np.rint(k)
+            on = (np.abs(k - j) <= 1e-5 * j) & (j >= 1) & (j <= 9)   # float32 positions
+            checked += on.sum()
+            still, moved = off_crease(1.0, i, on, j)
+            _, moved_half = off_crease(0.5, i, on, j)
+            assert moved < 0.05 * still and moved_half < 0.3 * moved + 1e-7
+        assert checked > 100
+
+
+def test_blob_centre_gradient_matches_finite_differences(llvm):
+    """prb's gradient of the mean pixel along a direction of the 6 centre coordinates,
+    framing the blob so that no silhouette is visible (prb takes no boundary terms),
+    against central differences of re-tessellated renders, for the smooth ``exact``
+    field. Each difference re-meshes, which adds noise of its own: measured 0.150, 0.147,
+    0.145 for h = 0.01, 0.02, 0.04 against AD 0.144; the mean of h = 0.02 and 0.04 is
+    compared, within 5%. (On the zone field AD gives 0.124 against 0.148, 0.142, 0.136:
+    not understood yet, see the report of issue 15.)"""
+    import drjit as dr
+    mi = llvm
+    scene = mi.load_dict(_blob_scene(mi, "exact"))
+    params = mi.traverse(scene)
+    key = "obj.centers"
+    x0 = mi.Float(params[key])
+    d = mi.Float(np.random.default_rng(3).uniform(-1, 1, 6).astype(np.float32))
+
+    def loss(value):
+        params[key] = value
+        params.update()
+        return float(dr.mean(mi.render(scene, params, spp=64, seed=1).array)[0])
+
+    fd = np.mean([(loss(x0 + h * d) - loss(x0 - h * d)) / (2 * h) for h in (0.02, 0.04)])
+    params[key] = mi.Float(x0)
+    dr.enable_grad(params[key])
+    params.update()
+    image = mi.render(scene, params, spp=64, seed=1, seed_grad=2)
+    dr.backward(dr.mean(image.array))
+    ad = float(np.sum(np.array(dr.grad(params[key])) * np.array(d)))
+    print(f"{key}: AD {ad:.5g}, central difference {fd:.5g}")
+    assert ad == pytest.approx(fd, rel=0.05)
