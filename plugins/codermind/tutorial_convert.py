@@ -56,7 +56,8 @@ def estimate_exposure(scene, target: float) -> float:
 def convert_scene(scene, out: str | os.PathLike | None, target: float | None = None,
                   max_depth: int | None = None, spp: int | None = None,
                   blob_max_error: float | None = None, exposure: float | None = None,
-                  lights: str | None = None, command: str | None = None) -> Conversion:
+                  lights: str | None = None, command: str | None = None,
+                  integrator: str = "tutorialpath", quirks: str = "clean") -> Conversion:
     """The conversion of a parsed scene (the model chosen, with the probe pass if needed)."""
     target = DEFAULT_TARGET if target is None else target
     kwargs = dict(max_depth=max_depth, spp=spp, blob_max_error=blob_max_error,
@@ -64,7 +65,7 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
     model = choose(scene, target, exposure=exposure, **kwargs)
     if model.needs_exposure:
         model = choose(scene, target, exposure=estimate_exposure(scene, target), **kwargs)
-    return convert(scene, out, model, command)
+    return convert(scene, out, model, command, integrator, quirks)
 
 
 def convert_file(scene_path: str | os.PathLike, out: str | os.PathLike, **options

@@ -92,6 +92,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             </integrator>
     """
 
+    #: Every delta light is added at every hit (``codermind render`` needs no render per light).
+    sums_lights = True
+
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         depth = props.get("max_depth", 11)
