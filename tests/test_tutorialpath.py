@@ -191,3 +191,24 @@ def test_bad_parameters_give_one_line(llvm, props, needle):
     with pytest.raises(Exception) as e:
         mi.load_dict({"type": "tutorialpath", **props})
     assert needle in str(e.value)
+
+
+@pytest.mark.parametrize("options,expect", [
+    ((), ('<integrator type="tutorialpath">', '<default name="quirks" value="clean"/>')),
+    (("--quirks", "strict"), ('<integrator type="tutorialpath">',
+                              '<default name="quirks" value="strict"/>')),
+    (("--integrator", "path"), ('<integrator type="path">', 'name="rr_depth"'))])
+def test_convert_writes_the_chosen_integrator(tmp_path, options, expect):
+    out = tmp_path / "page2.xml"
+    r = run_cli("convert", SCENES / "page2.txt", "-o", out, "-q", *options)
+    assert r.returncode == 0, r.stderr
+    text = out.read_text()
+    assert all(e in text for e in expect)
+    assert text.count("<integrator") == 1
+
+
+def test_convert_refuses_strict_path(tmp_path):
+    r = run_cli("convert", SCENES / "page2.txt", "-o", tmp_path / "x.xml", "--integrator",
+                "path", "--quirks", "strict")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--quirks strict" in r.stderr
+    assert not (tmp_path / "x.xml").exists()
