@@ -342,8 +342,9 @@ def _clip_and_offset(w: _Writer, near_note: str | None, far_note: str, offset: b
         w.float("pixel_offset_y", 1)
 
 
-def _sampler_film_end(w: _Writer, sampler: str, film: tuple[int, int], film_note: str) -> None:
-    _sampler(w, sampler)
+def _sampler_film_end(w: _Writer, sampler: str, film: tuple[int, int], film_note: str,
+                      spp: int | None = None) -> None:
+    _sampler(w, sampler, spp)
     _film(w, film[0], film[1], film_note)
     w.close("sensor")
 
@@ -363,7 +364,8 @@ def _ortho_sensor(w: _Writer, scene, sid: str, z0: float, film: tuple[int, int],
 
 
 def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, int],
-                  offset: bool, aperture: bool, sampler: str, film_note: str, note: str) -> None:
+                  offset: bool, aperture: bool, sampler: str, film_note: str, note: str,
+                  spp: int | None = None) -> None:
     cam = scene.camera
     w.open("sensor", note, type="conic", id=sid)
     w.string("lens", "tutorial", "square aperture [0, D]^2, focus sphere (spec 2.4)")
@@ -380,10 +382,29 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
     w.leaf("translate", None, x=format_number(scene.width / 2.0),
            y=format_number(scene.height / 2.0), z="0")
     w.close("transform")
-    _sampler_film_end(w, sampler, film, film_note)
+    _sampler_film_end(w, sampler, film, film_note, spp)
 
 
-def _sampler(w: _Writer, kind: str) -> None:
+#: The camera's sampler where its draws are random (lens, roulette), chosen from measurement
+#: (benchmarks/bench_samplers.py, README "The tutorialpath integrator"); used where the sample
+#: count suits it (Mitsuba rounds other counts up), else ``independent``.
+RANDOM_SAMPLER = "independent"
+
+
+def sampler_fits(kind: str, spp: int) -> bool:
+    """Whether Mitsuba's sampler ``kind`` takes exactly ``spp`` samples per pixel."""
+    root = math.isqrt(spp)
+    square = root * root == spp
+    if kind in ("stratified", "multijitter"):
+        return square
+    if kind == "ldsampler":
+        return square and root & (root - 1) == 0
+    if kind == "orthogonal":
+        return square and root > 1 and all(root % k for k in range(2, math.isqrt(root) + 1))
+    return True
+
+
+def _sampler(w: _Writer, kind: str, spp: int | None = None) -> None:
     if kind == "fixed":
         w.open("sampler", "no jitter: the fixed sample positions are exact", type="stratified")
         w.integer("sample_count", "$spp")
@@ -392,7 +413,9 @@ def _sampler(w: _Writer, kind: str) -> None:
         w.open("sampler", None, type="independent")
         w.integer("sample_count", 1)
     else:
-        w.open("sampler", "lens and roulette draws", type="independent")
+        chosen = RANDOM_SAMPLER if spp is None or sampler_fits(RANDOM_SAMPLER, spp) \
+            else "independent"
+        w.open("sampler", "lens and roulette draws", type=chosen)
         w.integer("sample_count", "$spp")
     w.close("sampler")
 
@@ -504,7 +527,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
         _conic_sensor(w, src, scene, "camera", size, True, True,
                       "random" if model.stochastic else "fixed", film_note,
                       f"{scene_note}: Perspective.Type = conic, line "
-                      f"{src.line('Scene', 'Perspective.Type')}")
+                      f"{src.line('Scene', 'Perspective.Type')}", spp=model.spp)
         w.blank()
         _conic_sensor(w, src, scene, "probes", (scene.width, scene.height), False, False,
                       "probe", "W x H: sample2 = (x / W, 1 - y / H) for tutorial pixel (x, y)",

@@ -14,6 +14,11 @@ def _mis_weight(pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
     return dr.detach(dr.select(pdf_a > 0, a2 / dr.fma(pdf_b, pdf_b, a2), 0.0))
 
 
+def _not(mask: mi.Bool) -> mi.Bool:
+    """Logical not that also works on the Python bools of scalar variants (~True == -2)."""
+    return mask ^ True
+
+
 class TutorialIntegrator(mi.SamplingIntegrator):
     r"""
     .. _integrator-tutorialpath:
@@ -105,6 +110,10 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         if self.quirks not in QUIRKS:
             raise ValueError(f"tutorialpath: 'quirks' must be 'clean' or 'strict', got "
                              f"{self.quirks!r}")
+        # scalar variants run the loop once per ray and have no null BSDF to call on a miss
+        # (si.bsdf() is None there): a stand-in whose every call is masked off
+        self.scalar = not dr.is_jit_v(mi.Float)
+        self.stand_in = mi.load_dict({"type": "tutorial"}) if self.scalar else None
 
     # -- the scene's emitters, sorted once per kernel trace ---------------------------------
     def _emitters(self, scene: mi.Scene):
@@ -132,7 +141,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         env = scene.environment()
         if env is None:
             return mi.Spectrum(0.0)
-        si = dr.zeros(mi.SurfaceInteraction3f)
+        si = dr.zeros(mi.SurfaceInteraction3f) if dr.is_jit_v(mi.Float) else \
+            mi.SurfaceInteraction3f()
         si.wi = -d
         si.t = dr.inf
         return env.eval(si, active)
@@ -170,12 +180,19 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             mis = mi.Float(1.0)
             if dr.hint(generic, mode="scalar"):
                 ds_hit = mi.DirectionSample3f(scene, si, prev_si)
-                em_pdf = scene.pdf_emitter_direction(prev_si, ds_hit, ~prev_delta)
+                em_pdf = scene.pdf_emitter_direction(prev_si, ds_hit, _not(prev_delta))
                 mis = dr.select(prev_delta, 1.0, _mis_weight(prev_pdf, em_pdf))
-            L += beta * mis * emitter.eval(si, active)
+            if dr.hint(self.scalar, mode="scalar"):
+                if emitter is not None:
+                    L += beta * mis * emitter.eval(si, active)
+            else:
+                L += beta * mis * emitter.eval(si, active)
 
             active_next = active & si.is_valid() & (depth + 1 < max_depth)
-            bsdf = si.bsdf(ray)
+            if dr.hint(self.scalar, mode="scalar"):
+                bsdf = si.bsdf(ray) if si.is_valid() else self.stand_in
+            else:
+                bsdf = si.bsdf(ray)
             d = mi.Vector3f(ray.d)
 
             if dr.hint(strict, mode="scalar"):
@@ -213,14 +230,14 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     far.maxt = dr.square(ds.dist) * (1.0 - SHADOW_EPSILON)
                     shadow = dr.select(squared, far, shadow)
                 blocked = scene.ray_test(shadow, lit)
-                L += dr.select(lit & ~blocked, beta * value * em_weight, 0.0)
+                L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
 
             # Other light sources, as `path` samples them (never in strict mode)
             if dr.hint(generic, mode="scalar"):
                 active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
                 ds, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True,
                                                                active_em)
-                active_em &= (ds.pdf != 0) & ~ds.delta
+                active_em &= (ds.pdf != 0) & _not(ds.delta)
                 wo = si.to_local(ds.d)
                 value, value_pdf = bsdf.eval_pdf(ctx, si, wo, active_em)
                 L += dr.select(active_em, beta * _mis_weight(ds.pdf, value_pdf) * value
@@ -250,7 +267,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 weight = dr.select(unbent, dr.select(unbent_go, mi.Spectrum(refraction), 0.0),
                                    weight)
                 wo_world = dr.select(unbent, d, wo_world)
-                n1 = dr.select(~unbent & refracted & active_next & (dr.max(weight) > 0), n2, n1)
+                n1 = dr.select(_not(unbent) & refracted & active_next & (dr.max(weight) > 0), n2, n1)
                 weight = dr.select(stuck, 0.0, weight)
 
             beta *= weight
@@ -265,7 +282,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 at_limit = active_next & (mi.Float(depth) + step >= segments)
                 L += dr.select(at_limit, beta * self._environment(scene, wo_world, at_limit),
                                0.0)
-                active_next &= ~at_limit
+                active_next &= _not(at_limit)
                 depth = mi.UInt32(dr.minimum(mi.Float(depth) + step, 4.0e9))
             else:
                 depth += 1
