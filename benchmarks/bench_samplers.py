@@ -80,8 +80,8 @@ def main() -> int:
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
 
     def scene_with(sampler: str, quirks: str = "clean"):
-        t = text.replace('<sampler type="independent">  <!-- lens and roulette draws -->',
-                         f'<sampler type="{sampler}">', 1)
+        t = re.sub(r'<sampler type="\w+">  <!-- lens and roulette draws -->',
+                   f'<sampler type="{sampler}">', text, count=1)
         path = folder / f"{sampler}_{quirks}.xml"
         path.write_text(t)
         scene, _ = sides.load_mitsuba(path, grid, {"quirks": quirks, "spp": "1"})

@@ -212,3 +212,14 @@ def test_convert_refuses_strict_path(tmp_path):
                 "path", "--quirks", "strict")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--quirks strict" in r.stderr
     assert not (tmp_path / "x.xml").exists()
+
+
+@pytest.mark.parametrize("spp,sampler", [(16, "multijitter"), (3, "independent")])
+def test_convert_writes_the_measured_sampler_where_the_count_fits(tmp_path, spp, sampler):
+    """The random camera sampler is tutorial_xml.RANDOM_SAMPLER (multijitter, from
+    benchmarks/bench_samplers.py) where Mitsuba takes the count as is (a square), else
+    independent (multijitter would round 3 up to 4)."""
+    out = tmp_path / "page4.xml"
+    r = run_cli("convert", SCENES / "page4.txt", "-o", out, "-q", "--spp", str(spp))
+    assert r.returncode == 0, r.stderr
+    assert f'<sampler type="{sampler}">  <!-- lens and roulette draws -->' in out.read_text()

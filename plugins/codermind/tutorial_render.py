@@ -233,7 +233,9 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
         pass_spp = min(pass_spp, -(-spp // k))
-    if str(sensor.sampler()).startswith("StratifiedSampler"):
+    # samplers that round a pass's count up to a square (multijitter: to a x b, exact for
+    # squares): passes of square counts, so that every pass is what it counts
+    if str(sensor.sampler()).startswith(("StratifiedSampler", "MultijitterSampler")):
         pass_spp = square_pass(spp, pass_spp)
     plan = pass_plan(spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
