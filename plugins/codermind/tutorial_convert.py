@@ -60,6 +60,10 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
                   integrator: str = "tutorialpath", quirks: str = "clean") -> Conversion:
     """The conversion of a parsed scene (the model chosen, with the probe pass if needed)."""
     target = DEFAULT_TARGET if target is None else target
+    if quirks == "strict" and max_depth is None:
+        # the original's 10 segments: strict adds the cube map at the limit, so a shorter
+        # path (the chooser's bound) would add it early
+        max_depth = FULL_DEPTH + 1
     kwargs = dict(max_depth=max_depth, spp=spp, blob_max_error=blob_max_error,
                   lights=lights or "sum")
     model = choose(scene, target, exposure=exposure, **kwargs)
