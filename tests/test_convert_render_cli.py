@@ -118,7 +118,8 @@ def test_python_api_variance_from_passes(llvm, tmp_path):
     assert len(res.pass_times) == 16
     zero = (res.variance == 0).mean()
     assert 0.2 < zero < 0.9
-    # E[(a - b)^2] = 2 var(mean) for two independent renders a, b
-    again = tr.render(scene, settings, seed=1, exposure=3.0)
+    # E[(a - b)^2] = 2 var(mean) for two independent renders a, b of the same pass plan (the
+    # camera's multijitter sampler stratifies within a pass: one 16-sample pass is less noisy)
+    again = tr.render(scene, settings, seed=1, exposure=3.0, pass_spp=1)
     ratio = np.mean(np.square(again.linear - res.linear)) / (2 * np.mean(res.variance))
     assert 0.85 < ratio < 1.15
