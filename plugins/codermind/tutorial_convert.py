@@ -60,7 +60,8 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
                   integrator: str = "tutorialpath", quirks: str = "clean") -> Conversion:
     """The conversion of a parsed scene (the model chosen, with the probe pass if needed)."""
     target = DEFAULT_TARGET if target is None else target
-    if quirks == "strict" and max_depth is None:
+    forced_depth = quirks == "strict" and max_depth is None
+    if forced_depth:
         # the original's 10 segments: strict adds the cube map at the limit, so a shorter
         # path (the chooser's bound) would add it early
         max_depth = FULL_DEPTH + 1
@@ -69,6 +70,11 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
     model = choose(scene, target, exposure=exposure, **kwargs)
     if model.needs_exposure:
         model = choose(scene, target, exposure=estimate_exposure(scene, target), **kwargs)
+    if forced_depth:
+        model.reasons["max_depth"] = ("the original's 10 segments (strict adds the cube map at "
+                                      "the segment limit)")
+    if integrator == "tutorialpath":
+        model.reasons["lights"] = "the tutorialpath integrator adds every light at every hit"
     return convert(scene, out, model, command, integrator, quirks)
 
 
