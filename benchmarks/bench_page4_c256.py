@@ -11,16 +11,21 @@ processes share the machine), medians over ``--runs`` interleaved runs:
 * first render: JIT compilation of the kernel (or loading it from Dr.Jit's kernel cache in
   ~/.drjit: run twice to see both);
 * probes: the auto exposure (256 probe rays);
-* render: all 1024 samples per pixel, ``--lights sum`` (one render per light, added: the
-  tutorial's all-lights estimate) and ``sample`` (Mitsuba picks one light per hit: half the
-  work, the same expectation, more noise); the mean byte difference between the two is printed;
+* render, at ``--complexity`` (default 256: 1024 samples per pixel) and each of
+  ``--also`` (default 64: 256 samples per pixel): the ``tutorialpath`` integrator (the
+  converter's default: every light with its own shadow ray at every hit, one render), and the
+  built-in ``path`` with ``--lights sum`` (one render per light, added: the tutorial's
+  all-lights estimate) and ``sample`` (Mitsuba picks one light per hit: the same expectation,
+  more noise); the ratios to the original program's time and between the integrators are
+  printed, and the mean byte difference of each image from tutorialpath's;
 * the port (clean, all cores) at ``--port-complexity`` (default 4), scaled linearly to 256.
 
 ``--breakdown`` adds the CPU cost per sample of the scene with parts removed (blob, its
-refraction, its bump, the textures, the lens, depths, blob tessellation, pass size), one light
-scene, ``--breakdown-spp`` samples each.
+refraction, its bump, the textures, the lens, the lights, depths, blob tessellation, pass
+size), with ``tutorialpath`` (and ``path``, one light scene), ``--breakdown-spp`` samples each.
 
-Run: ``python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]``.
+Run: ``nice python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]
+[--also 64]``.
 """
 
 from __future__ import annotations
@@ -40,7 +45,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "tutorial" / "page4"
-ORIGINAL_SECONDS = 148.0     # the original program, Complexity 256, one core (TUTORIAL_SPEC)
+#: The original program, Complexity 256 (1024 samples per pixel), one core: measured on this
+#: machine class next to `codermind render` (issue 14; TUTORIAL_SPEC says about 148 s).
+ORIGINAL_SECONDS = 145.7
 
 
 def cpu() -> float:
@@ -98,7 +105,8 @@ def main() -> int:
     p.add_argument("--complexity", type=int, default=256)
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--port-complexity", type=int, default=4)
-    p.add_argument("--lights", default="sum,sample")
+    p.add_argument("--also", default="64", help="further Complexities, comma-separated")
+    p.add_argument("--lights", default="sum,sample", help="path's light modes")
     p.add_argument("--breakdown", action="store_true")
     p.add_argument("--breakdown-spp", type=int, default=16)
     args = p.parse_args()
@@ -116,29 +124,34 @@ def main() -> int:
     print(f"scene {args.scene}, Complexity {args.complexity}, {load_text()}, "
           f"{dr.thread_count()} Dr.Jit threads")
     xml = convert(args.scene, folder, "page4", spp=args.complexity)
+    xml_path = convert(args.scene, folder, "page4_path", spp=args.complexity, integrator="path")
     model = dict(re.findall(r'<default name="(\w+)" value="([^"]+)"', xml.read_text()))
     print(f"model: {model}")
 
     (scene, settings), t_load, c_load = timed(lambda: tr.load(xml))
+    scene_path, _ = tr.load(xml_path)
     lights = [m for m in args.lights.split(",") if m]
-    scenes = {"sum": tr.light_scenes(scene), "sample": [scene]}
-    _, t_first, c_first = timed(lambda: [np.array(mi.render(s, spp=1)) for s in scenes["sum"]]
-                                + [np.array(mi.render(scene, spp=1))])
-    e, t_probe, c_probe = timed(lambda: tr.probe_exposure(scenes["sum"], settings, seed=0))
+    configs = {"tutorialpath": (scene, "sum")}
+    configs.update({f"path, lights={m}": (scene_path, m) for m in lights})
+    first = [scene] + tr.light_scenes(scene_path) + [scene_path]
+    _, t_first, c_first = timed(lambda: [np.array(mi.render(s, spp=1)) for s in first])
+    e, t_probe, c_probe = timed(lambda: tr.probe_exposure(scene, settings, seed=0))
     print(f"load (blob mesh) {t_load:.2f} s wall / {c_load:.2f} s CPU; first renders (JIT "
           f"compile or cache) {t_first:.2f} / {c_first:.2f}; probes {t_probe:.2f} / "
           f"{c_probe:.2f}; exposure {e:.4f}")
 
-    results = {m: [] for m in lights}
+    complexities = [args.complexity] + [int(c) for c in args.also.split(",") if c]
+    results = {(c, name): [] for c in complexities for name in configs}
     images = {}
     for run in range(args.runs):
-        for mode in lights:
-            res, wall, cpu_s = timed(lambda: tr.render(scene, settings, spp=args.complexity,
-                                                       seed=run, exposure=e, lights=mode))
-            results[mode].append((wall, cpu_s))
-            images[mode] = res.image.rgb8
-            print(f"  run {run + 1} lights={mode}: {wall:.2f} s wall, {cpu_s:.2f} s CPU, "
-                  f"{len(res.pass_times)} passes; {load_text()}", flush=True)
+        for c in complexities:
+            for name, (sc, mode) in configs.items():
+                res, wall, cpu_s = timed(lambda: tr.render(sc, settings, spp=c, seed=run,
+                                                           exposure=e, lights=mode))
+                results[(c, name)].append((wall, cpu_s))
+                images[(c, name)] = res.image.rgb8
+                print(f"  run {run + 1} C={c} {name}: {wall:.2f} s wall, {cpu_s:.2f} s CPU, "
+                      f"{len(res.pass_times)} passes; {load_text()}", flush=True)
 
     # the port: the same work at a lower Complexity, scaled
     import codermind_ref as ref
@@ -149,27 +162,28 @@ def main() -> int:
         _, wall, _ = timed(lambda: ref.render(port_scene, mode="clean", seed=run,
                                               complexity=args.port_complexity, workers=workers))
         port_times.append(wall)
-    port = statistics.median(port_times) * args.complexity / args.port_complexity
+    port = statistics.median(port_times)
 
     print()
-    print(f"Page 4 at Complexity {args.complexity} (640x480, {4 * args.complexity} samples per "
-          f"pixel), medians of {args.runs}; {load_text()}")
-    original = ORIGINAL_SECONDS * args.complexity / 256
-    print(f"{'':34s} {'wall s':>8s} {'CPU s':>8s} {'speed-up vs original':>21s}")
-    for mode in lights:
-        wall = statistics.median(w for w, _ in results[mode])
-        c = statistics.median(c for _, c in results[mode])
-        print(f"{'Mitsuba, lights=' + mode:34s} {wall:8.2f} {c:8.2f} {original / wall:20.2f}x")
-    print(f"{'port (clean, %d workers), C=%d x %d' % (workers, args.port_complexity, args.complexity // args.port_complexity):34s} "
-          f"{port:8.2f} {'':>8s} {original / port:20.2f}x   (timed at Complexity "
-          f"{args.port_complexity}, scaled linearly)")
-    print(f"{'original program (spec), 1 core':34s} {original:8.2f}"
-          + ("" if args.complexity == 256 else "   (its 148 s at 256, scaled)"))
+    print(f"Page 4, 640x480, medians of {args.runs}; {load_text()}; the original: "
+          f"{ORIGINAL_SECONDS} s at Complexity 256 on one core (scaled linearly)")
+    print(f"{'':28s} {'C':>4s} {'spp/px':>6s} {'wall s':>8s} {'CPU s':>8s} {'vs original':>12s} "
+          f"{'vs tutorialpath':>16s} {'|byte diff|':>11s}")
+    for c in complexities:
+        original = ORIGINAL_SECONDS * c / 256
+        base = statistics.median(w for w, _ in results[(c, "tutorialpath")])
+        for name in configs:
+            wall = statistics.median(w for w, _ in results[(c, name)])
+            cs = statistics.median(x for _, x in results[(c, name)])
+            diff = np.abs(images[(c, name)].astype(int)
+                          - images[(c, "tutorialpath")].astype(int)).mean()
+            print(f"{name:28s} {c:4d} {4 * c:6d} {wall:8.2f} {cs:8.2f} {original / wall:11.2f}x "
+                  f"{wall / base:15.2f}x {diff:11.3f}")
+        print(f"{'original program, 1 core':28s} {c:4d} {4 * c:6d} {original:8.2f}")
+        p_c = port * c / args.port_complexity
+        print(f"{'port (clean, %d workers)' % workers:28s} {c:4d} {4 * c:6d} {p_c:8.2f} "
+              f"{'':8s} {original / p_c:11.2f}x   (timed at C={args.port_complexity}, scaled)")
     print(f"fixed costs: load {t_load:.2f} s, first renders {t_first:.2f} s, probes {t_probe:.2f} s")
-    if len(images) == 2:
-        d = np.abs(images["sum"].astype(int) - images["sample"].astype(int))
-        print(f"sum vs sample (same exposure, one run each): mean |byte diff| {d.mean():.3f}, "
-              f"max {d.max()}")
 
     if args.breakdown:
         breakdown(args, folder, tr, mi, dr)
@@ -178,7 +192,7 @@ def main() -> int:
 
 
 def breakdown(args, folder: Path, tr, mi, dr) -> None:
-    """CPU seconds per sample per pixel of one light scene with parts of the scene removed."""
+    """CPU seconds per sample per pixel with parts of the scene removed, per integrator."""
     spp = args.breakdown_spp
     variants = {
         "as converted": ((), {}),
@@ -188,39 +202,42 @@ def breakdown(args, folder: Path, tr, mi, dr) -> None:
         "no textures (gouraud)": ((("Material0", "Type", "gouraud"),
                                    ("Material2", "Type", "gouraud")), {}),
         "no lens (Dispersion 0)": ((("Scene", "Perspective.Dispersion", "0.0"),), {}),
+        "one light (Light1 off)": ((("Light1", "Intensity", "0.0 0.0 0.0"),), {}),
         "max_depth 2 (1 segment)": ((), {"max_depth": 2}),
         "max_depth 5": ((), {"max_depth": 5}),
         "blob max_error 0.5": ((), {"blob_max_error": 0.5}),
         "blob max_error 0.02": ((), {"blob_max_error": 0.02}),
     }
-    loaded = {}
-    for name, (edits, options) in variants.items():
-        xml = convert(args.scene, folder, f"v{len(loaded)}", edits=edits, spp=spp, **options)
-        scene, _ = tr.load(xml)
-        one = tr.light_scenes(scene)[0]
-        mi.render(one, spp=1)
-        dr.sync_thread()
-        loaded[name] = one
-    costs = {name: [] for name in loaded}
-    for run in range(args.runs):
-        for name, one in loaded.items():
-            _, _, c = timed(lambda: np.array(mi.render(one, spp=spp, seed=run)))
-            costs[name].append(c / spp)
-    base = statistics.median(costs["as converted"])
-    print()
-    print(f"Where the time goes: CPU s per spp (1280x960 film, light scene 1 of 2), medians; "
-          f"{load_text()}")
-    for name, c in costs.items():
-        m = statistics.median(c)
-        print(f"  {name:28s} {m:7.3f}  ({m / base:5.2f} of the full scene)")
-    one = loaded["as converted"]
-    for per in (1, 6, 27, 64):
-        if per > spp:
-            break
-        _, _, c = timed(lambda: [np.array(mi.render(one, spp=per, seed=9 + k))
-                                 for k in range(max(1, spp // per))])
-        print(f"  passes of {per:3d} spp: {c / (per * max(1, spp // per)):.3f} CPU s per spp")
-
+    for integrator in ("tutorialpath", "path"):
+        loaded = {}
+        for name, (edits, options) in variants.items():
+            xml = convert(args.scene, folder, f"v{len(loaded)}_{integrator}", edits=edits,
+                          spp=spp, integrator=integrator, **options)
+            scene, _ = tr.load(xml)
+            one = tr.light_scenes(scene)[0]     # tutorialpath: the scene (all lights)
+            mi.render(one, spp=1)
+            dr.sync_thread()
+            loaded[name] = one
+        costs = {name: [] for name in loaded}
+        for run in range(args.runs):
+            for name, one in loaded.items():
+                _, _, c = timed(lambda: np.array(mi.render(one, spp=spp, seed=run)))
+                costs[name].append(c / spp)
+        base = statistics.median(costs["as converted"])
+        print()
+        print(f"Where the time goes, {integrator}"
+              + (" (all lights)" if integrator == "tutorialpath" else " (light scene 1 of 2)")
+              + f": CPU s per spp (1280x960 film), medians; {load_text()}")
+        for name, c in costs.items():
+            m = statistics.median(c)
+            print(f"  {name:28s} {m:7.3f}  ({m / base:5.2f} of the full scene)")
+        one = loaded["as converted"]
+        for per in (1, 6, 27, 64):
+            if per > spp:
+                break
+            _, _, c = timed(lambda: [np.array(mi.render(one, spp=per, seed=9 + k))
+                                     for k in range(max(1, spp // per))])
+            print(f"  passes of {per:3d} spp: {c / (per * max(1, spp // per)):.3f} CPU s per spp")
 
 if __name__ == "__main__":
     sys.exit(main())

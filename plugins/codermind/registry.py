@@ -1,7 +1,7 @@
 """Registration of every plugin of this package with Mitsuba, per variant.
 
-Plugins live in the sub-packages ``bsdfs``, ``textures``, ``shapes``, ``sensors``
-and ``emitters``, one module per plugin named after its XML ``type``; each module
+Plugins live in the sub-packages ``bsdfs``, ``textures``, ``shapes``, ``sensors``,
+``emitters`` and ``integrators``, one module per plugin named after its XML ``type``; each module
 registers itself at import (modules starting with ``_`` are helpers). A plugin
 class can only be defined while a variant is set and only builds in that variant,
 so on every variant switch the modules are reloaded, which defines the classes
@@ -16,7 +16,7 @@ import sys
 
 import mitsuba as mi
 
-CATEGORIES = ("textures", "bsdfs", "shapes", "sensors", "emitters")
+CATEGORIES = ("textures", "bsdfs", "shapes", "sensors", "emitters", "integrators")
 
 
 def plugin_modules() -> list[str]:

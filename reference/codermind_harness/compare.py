@@ -57,6 +57,7 @@ class Options:
     exposure: float | None = None
     blob_max_error: float | None = None
     port_mode: str = "clean"
+    quirks: str = "clean"         #: the Mitsuba side's tutorialpath quirks (strict: port strict)
     out_dir: Path = Path("compare")
     defines: dict = field(default_factory=dict)
     thresholds: Thresholds = field(default_factory=Thresholds)
@@ -135,10 +136,16 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     out = Path(opt.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if xml is None:
-        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error, name=f"{label}.mitsuba.xml")
+        xml = sides.convert_xml(txt, scene, out, opt.blob_max_error, name=f"{label}.mitsuba.xml",
+                                quirks=opt.quirks)
         defines = dict(opt.defines)
     else:
         defines = dict(opt.defines)
+        if opt.quirks != "clean":
+            if '<default name="quirks"' not in xml.read_text(encoding="utf-8"):
+                raise HarnessError(f"{xml}: no tutorialpath integrator with a quirks default "
+                                   "(convert it again without --integrator path)")
+            defines["quirks"] = opt.quirks
         if opt.blob_max_error is not None:
             defines.update({f"blob{i}_max_error": str(opt.blob_max_error)
                             for i in range(len(scene.blobs))})
@@ -198,6 +205,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         "rect": list(grid.rect), "stride": grid.stride, "pixels": grid.pixels,
         "sub_samples": int(z.passed_map.size), "spp": spp, "seed": opt.seed,
         "random": random, "exposure": exposure, "port_mode": opt.port_mode,
+        "quirks": opt.quirks,
         "defines": defines,
         "z_test": {"pass_rate": z.pass_rate, "channel_pass_rate": z.channel_pass_rate,
                    "tests": z.tests, "alpha": th.alpha, "alpha_sidak": z.alpha,

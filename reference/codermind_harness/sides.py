@@ -175,14 +175,16 @@ def port_exposures(scene, seeds, mode: str = "clean") -> list[float] | None:
 
 
 def convert_xml(txt: Path, scene, out_dir: Path, blob_max_error: float | None = None,
-                name: str | None = None) -> Path:
-    """The converter's XML of ``scene`` with the full model (``max_depth`` 11), written to
-    ``out_dir`` (cube-map faces named relative to it)."""
+                name: str | None = None, quirks: str = "clean") -> Path:
+    """The converter's XML of ``scene`` with the full model (``max_depth`` 11) and the
+    ``tutorialpath`` integrator with ``quirks``, written to ``out_dir`` (cube-map faces named
+    relative to it)."""
     from codermind.tutorial.convert import convert_scene
     from codermind.imageio import atomic_path
     xml = out_dir / (name or f"{txt.stem}.xml")
     conversion = convert_scene(scene, xml, max_depth=11, spp=1, blob_max_error=blob_max_error,
-                               command=f"codermind convert {txt} --max-depth 11")
+                               command=f"codermind convert {txt} --max-depth 11",
+                               quirks=quirks)
     out_dir.mkdir(parents=True, exist_ok=True)
     with atomic_path(xml) as tmp:
         tmp.write_text(conversion.xml, encoding="utf-8")

@@ -179,6 +179,14 @@ class NoiseBumpBSDF(mi.BSDF):
         value, pdf = self.nested.eval_pdf(ctx, perturbed, perturbed_wo, active)
         return value & active, dr.select(active, pdf, 0.0)
 
+    def has_attribute(self, name: str, active: mi.Bool = True) -> bool:
+        return self.nested.has_attribute(name, active)
+
+    def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f,
+                         active: mi.Bool = True) -> mi.Float:
+        """The nested BSDF's attribute at the bumped frame (as its ``sample`` sees it)."""
+        return self.nested.eval_attribute_1(name, self._perturbed(si, active), active)
+
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f,
                                  active: mi.Bool = True) -> mi.Spectrum:
         return self.nested.eval_diffuse_reflectance(si, active)

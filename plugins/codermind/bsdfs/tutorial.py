@@ -296,6 +296,38 @@ class TutorialBSDF(mi.BSDF):
         weight = dr.select(reflect, self.reflection, self.refraction)
         return bs, mi.Spectrum(weight) & ok
 
+    #: Per-hit quantities the ``tutorial`` integrator's strict mode reads through
+    #: ``eval_attribute_1`` (the path state a one-hit BSDF cannot keep, spec 2.6-2.7).
+    ATTRIBUTES = ("tutorial_page", "tutorial_textured", "tutorial_inside", "tutorial_density",
+                  "tutorial_refraction", "tutorial_events")
+
+    def has_attribute(self, name: str, active: mi.Bool = True) -> bool:
+        return name in self.ATTRIBUTES
+
+    def eval_attribute_1(self, name: str, si: mi.SurfaceInteraction3f,
+                         active: mi.Bool = True) -> mi.Float:
+        """``tutorial_page``: 1, 2 or 4; ``tutorial_textured``: 1 where ``diffuse`` varies
+        over space (turbulence, marble); ``tutorial_inside``: 1 on the tutorial's "inside"
+        side; ``tutorial_density``, ``tutorial_refraction``: the parameters;
+        ``tutorial_events``: Rf + Tr with this BSDF's (side-based) Fresnel (0 on pages 1-2)."""
+        zero = dr.zeros(mi.Float, dr.width(si.p.x)) if dr.is_jit_v(mi.Float) else mi.Float(0.0)
+        if name == "tutorial_page":
+            return zero + float(self.page)
+        if name == "tutorial_textured":
+            return zero + (1.0 if self.diffuse.is_spatially_varying() else 0.0)
+        if name == "tutorial_density":
+            return zero + self.density
+        if name == "tutorial_refraction":
+            return zero + self.refraction
+        if name == "tutorial_inside":
+            return dr.select(self._inside(si), 1.0, 0.0) + zero if self.page == 4 else zero
+        if name == "tutorial_events":
+            if self.page != 4:
+                return zero
+            _, rf, tr, *_ = self._events(si)
+            return rf + tr + zero
+        raise ValueError(f"{self.plugin}: no attribute {name!r}")
+
     def eval_diffuse_reflectance(self, si: mi.SurfaceInteraction3f,
                                  active: mi.Bool = True) -> mi.Spectrum:
         return self.diffuse.eval(si, active)

@@ -44,15 +44,26 @@ def estimate_exposure(scene, target: float) -> float:
 def convert_scene(scene, out: str | os.PathLike | None, target: float | None = None,
                   max_depth: int | None = None, spp: int | None = None,
                   blob_max_error: float | None = None, exposure: float | None = None,
-                  lights: str | None = None, command: str | None = None) -> Conversion:
+                  lights: str | None = None, command: str | None = None,
+                  integrator: str = "tutorialpath", quirks: str = "clean") -> Conversion:
     """The conversion of a parsed scene (the model chosen, with the probe pass if needed)."""
     target = DEFAULT_TARGET if target is None else target
+    forced_depth = quirks == "strict" and max_depth is None
+    if forced_depth:
+        # the original's 10 segments: strict adds the cube map at the limit, so a shorter
+        # path (the chooser's bound) would add it early
+        max_depth = FULL_DEPTH + 1
     kwargs = dict(max_depth=max_depth, spp=spp, blob_max_error=blob_max_error,
                   lights=lights or "sum")
     model = choose(scene, target, exposure=exposure, **kwargs)
     if model.needs_exposure:
         model = choose(scene, target, exposure=estimate_exposure(scene, target), **kwargs)
-    return convert(scene, out, model, command)
+    if forced_depth:
+        model.reasons["max_depth"] = ("the original's 10 segments (strict adds the cube map at "
+                                      "the segment limit)")
+    if integrator == "tutorialpath":
+        model.reasons["lights"] = "the tutorialpath integrator adds every light at every hit"
+    return convert(scene, out, model, command, integrator, quirks)
 
 
 def convert_file(scene, out: str | os.PathLike, **options) -> ConvertResult:

@@ -159,7 +159,10 @@ class TutorialRender:
 
 def light_scenes(scene: mi.Scene) -> list[mi.Scene]:
     """One scene per light (every environment emitter goes with the first), sharing the
-    shapes, sensors and integrator of ``scene``; ``[scene]`` with at most one light."""
+    shapes, sensors and integrator of ``scene``; ``[scene]`` with at most one light, or when
+    the integrator adds every light at every hit itself (``tutorialpath``)."""
+    if sums_lights(scene):
+        return [scene]
     lights = [e for e in scene.emitters()
               if not mi.has_flag(e.flags(), mi.EmitterFlags.Infinite)]
     if len(lights) <= 1:
@@ -176,9 +179,16 @@ def light_scenes(scene: mi.Scene) -> list[mi.Scene]:
     return out
 
 
+def sums_lights(scene: mi.Scene) -> bool:
+    """The scene's integrator adds every delta light at every hit (``tutorialpath``)."""
+    return bool(getattr(scene.integrator(), "sums_lights", False))
+
+
 def check_light_sampling(scene: mi.Scene, spp: int) -> None:
     """Mitsuba's light choice needs random (or N^2 stratified) samples: a jitter-free
     stratified sampler with fewer picks the same light at every sample."""
+    if sums_lights(scene):
+        return
     n = sum(not mi.has_flag(e.flags(), mi.EmitterFlags.Infinite) for e in scene.emitters())
     sampler = str(scene.sensors()[0].sampler())
     if n > 1 and sampler.startswith("StratifiedSampler") and "jitter = 0" in sampler \
@@ -218,7 +228,9 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
         pass_spp = min(pass_spp, -(-spp // k))
-    if str(sensor.sampler()).startswith("StratifiedSampler"):
+    # samplers that round a pass's count up to a square (multijitter: to a x b, exact for
+    # squares): passes of square counts, so that every pass is what it counts
+    if str(sensor.sampler()).startswith(("StratifiedSampler", "MultijitterSampler")):
         pass_spp = square_pass(spp, pass_spp)
     plan = pass_plan(spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards

@@ -2,7 +2,7 @@
 
 :func:`convert` turns a scene parsed by the port's parser (``codermind_ref.parse_scene``:
 the tutorial's reading of every value, with source lines) into a readable Mitsuba scene that
-uses this package's plugins and the built-in ``path`` integrator:
+uses this package's plugins and, by default, its ``tutorialpath`` integrator:
 
 * world units and axes are the tutorial's (pixels; x right, y up, z into the screen); the
   left-handed frame is shown as the tutorial shows it by mirroring x in the camera's
@@ -19,8 +19,11 @@ uses this package's plugins and the built-in ``path`` integrator:
 * spheres: built-in ``sphere``; blobs: ``blob`` with the tutorial's zone field and exactly the
   three centres the original reads; lights: ``tutorialpoint`` (no falloff); the cube map:
   ``cubemap`` in ``background`` mode with the faces named relative to the XML's folder;
-* ``path`` with ``max_depth`` = path depth + 1 (11 for the tutorial's 10 segments) and no
-  Russian roulette.
+* ``tutorialpath`` (default; ``quirks`` clean, or strict for the original's quirks) with
+  ``max_depth`` = path depth + 1 (11 for the tutorial's 10 segments): every light at every
+  hit, as the tutorial, in one render; or (``integrator="path"``) the built-in ``path`` with
+  the same ``max_depth`` and no Russian roulette, which has the same expectation as clean
+  ``tutorialpath`` and samples one light per hit.
 
 The model (depth, samples, blob tessellation) is :func:`codermind.tutorial.model.choose`'s,
 baked in as ``<default>`` values that ``-D name=value`` overrides at render time. The
@@ -207,26 +210,28 @@ def _extent(scene) -> float:
     return best
 
 
-def _notes(scene, model: Model) -> list[str]:
+def _notes(scene, model: Model, integrator: str = "tutorialpath",
+           quirks: str = "clean") -> list[str]:
     page = scene.page
+    strict = quirks == "strict"
     used = {o.material_id for o in list(scene.spheres) + list(scene.blobs)}
     mats = [scene.materials[i] for i in sorted(used)]
     continues = any(m.reflection > 0 or (page == 4 and m.refraction > 0) for m in mats)
     notes = []
-    if page in (2, 4) and scene.lights:
+    if page in (2, 4) and scene.lights and not strict:
         notes.append("Shadow rays are tested up to the light (the strict original tests up to "
                      "the SQUARED distance, so objects beyond a light can cast shadows there).")
     if page == 4:
         textured = any(m.type in ("turbulence", "marble") for m in mats)
-        if textured and continues:
+        if textured and continues and not strict:
             notes.append("Turbulence and marble lighting is weighted by the path coefficient "
                          "once (the strict original applies it twice after a reflection or "
                          "refraction).")
-        if continues:
+        if continues and not strict:
             notes.append("After the 10th segment the next ray is traced and adds the cube map "
                          "only if it escapes (the strict original adds the cube map along it "
                          "unconditionally).")
-        if any(m.refraction > 0 and m.density != 0 for m in mats):
+        if any(m.refraction > 0 and m.density != 0 for m in mats) and not strict:
             notes.append("A 'diffuse' roulette draw inside an object is redrawn among reflect "
                          "and refract without using a segment (the strict original re-traces "
                          "the segment, each try using one of the 10).")
@@ -254,7 +259,11 @@ def _notes(scene, model: Model) -> list[str]:
                          "the same distribution, other noise.")
         notes.append("Noise, textures and bump are computed in float32 (the original's Perlin "
                      "noise is double precision).")
-    if len(scene.lights) > 1:
+        if strict:
+            notes.append("Strict quirks not reproduced: the original's stop at a zero normal "
+                         "(Mitsuba's shapes have none) and its float32 blob bound (the blob is "
+                         "a mesh).")
+    if len(scene.lights) > 1 and integrator == "path":
         notes.append("The tutorial shades every hit with all its lights; Mitsuba's path "
                      "integrator samples one light per hit. " + (
                          "codermind render therefore renders once per light and adds the "
@@ -333,8 +342,9 @@ def _clip_and_offset(w: _Writer, near_note: str | None, far_note: str, offset: b
         w.float("pixel_offset_y", 1)
 
 
-def _sampler_film_end(w: _Writer, sampler: str, film: tuple[int, int], film_note: str) -> None:
-    _sampler(w, sampler)
+def _sampler_film_end(w: _Writer, sampler: str, film: tuple[int, int], film_note: str,
+                      spp: int | None = None) -> None:
+    _sampler(w, sampler, spp)
     _film(w, film[0], film[1], film_note)
     w.close("sensor")
 
@@ -354,7 +364,8 @@ def _ortho_sensor(w: _Writer, scene, sid: str, z0: float, film: tuple[int, int],
 
 
 def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, int],
-                  offset: bool, aperture: bool, sampler: str, film_note: str, note: str) -> None:
+                  offset: bool, aperture: bool, sampler: str, film_note: str, note: str,
+                  spp: int | None = None) -> None:
     cam = scene.camera
     w.open("sensor", note, type="conic", id=sid)
     w.string("lens", "tutorial", "square aperture [0, D]^2, focus sphere (spec 2.4)")
@@ -371,10 +382,33 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
     w.leaf("translate", None, x=format_number(scene.width / 2.0),
            y=format_number(scene.height / 2.0), z="0")
     w.close("transform")
-    _sampler_film_end(w, sampler, film, film_note)
+    _sampler_film_end(w, sampler, film, film_note, spp)
 
 
-def _sampler(w: _Writer, kind: str) -> None:
+#: The camera's sampler where its draws are random (lens, roulette), chosen from measurement
+#: (README "The tutorialpath integrator"); used where the sample count suits it (Mitsuba
+#: rounds other counts up), else ``independent``. Stratifying the Complexity rays of a
+#: sub-sample is legitimate: the tone curve acts on their mean.
+#: Page 4 crop (benchmarks/bench_samplers.py, Complexity 256 scene), CPU seconds to the strict
+#: port's error at Complexity 256: independent 1.71, stratified 0.24, multijitter 0.17,
+#: ldsampler 0.18, orthogonal 0.21.
+RANDOM_SAMPLER = "multijitter"
+
+
+def sampler_fits(kind: str, spp: int) -> bool:
+    """Whether Mitsuba's sampler ``kind`` takes exactly ``spp`` samples per pixel."""
+    root = math.isqrt(spp)
+    square = root * root == spp
+    if kind in ("stratified", "multijitter"):
+        return square
+    if kind == "ldsampler":
+        return square and root & (root - 1) == 0
+    if kind == "orthogonal":
+        return square and root > 1 and all(root % k for k in range(2, math.isqrt(root) + 1))
+    return True
+
+
+def _sampler(w: _Writer, kind: str, spp: int | None = None) -> None:
     if kind == "fixed":
         w.open("sampler", "no jitter: the fixed sample positions are exact", type="stratified")
         w.integer("sample_count", "$spp")
@@ -383,7 +417,9 @@ def _sampler(w: _Writer, kind: str) -> None:
         w.open("sampler", None, type="independent")
         w.integer("sample_count", 1)
     else:
-        w.open("sampler", "lens and roulette draws", type="independent")
+        chosen = RANDOM_SAMPLER if spp is None or sampler_fits(RANDOM_SAMPLER, spp) \
+            else "independent"
+        w.open("sampler", "lens and roulette draws", type=chosen)
         w.integer("sample_count", "$spp")
     w.close("sampler")
 
@@ -406,16 +442,45 @@ def _cubemap(w: _Writer, src: _Source, scene, folder: Path | None) -> None:
     w.close("emitter")
 
 
+INTEGRATORS = ("tutorialpath", "path")
+QUIRKS = ("clean", "strict")
+
+
+def _integrator(w: _Writer, integrator: str, page: int) -> None:
+    if integrator == "path":
+        w.open("integrator", "Mitsuba's built-in path tracer (convert option integrator=path): "
+               "the expectation of the clean tutorialpath, one light sampled per hit", type="path")
+        w.integer("max_depth", "$max_depth")
+        w.integer("rr_depth", "$max_depth", "no Russian roulette (the tutorial has none)")
+        w.close("integrator")
+        return
+    w.open("integrator", "the default: the tutorial's transport, every light with its own "
+           "shadow ray at every hit (one render; path picks one light per hit), then the "
+           "material's roulette; clean has path's expectation at less cost", type="tutorialpath")
+    w.integer("max_depth", "$max_depth")
+    w.string("quirks", "$quirks", "clean: path's expectation; strict: the original's quirks"
+             + (" (page 1 has none)" if page == 1 else ""))
+    w.close("integrator")
+
+
 def convert(scene, xml_path: str | os.PathLike | None, model: Model,
-            command: str | None = None) -> Conversion:
+            command: str | None = None, integrator: str = "tutorialpath",
+            quirks: str = "clean") -> Conversion:
     """The Mitsuba XML of ``scene`` (a ``codermind_ref.Scene``) with ``model``.
     ``xml_path``: where it will be written (cube-map faces are named relative to its folder;
-    None: absolute names). ``command``: how to regenerate it (for the header)."""
+    None: absolute names). ``command``: how to regenerate it (for the header). ``integrator``:
+    ``tutorialpath`` (default) or ``path``; ``quirks`` (tutorialpath): clean or strict."""
+    if integrator not in INTEGRATORS:
+        raise CodermindError(f"integrator must be one of {', '.join(INTEGRATORS)}, got "
+                             f"{integrator!r}")
+    if quirks not in QUIRKS or (quirks == "strict" and integrator == "path"):
+        raise CodermindError(f"quirks must be 'clean' or 'strict' (strict needs the "
+                             f"tutorialpath integrator), got {quirks!r} with {integrator}")
     src = _Source(scene)
     _check_scene(scene, src)
     page = scene.page
     settings = settings_of(scene, model.lights)
-    notes = _notes(scene, model)
+    notes = _notes(scene, model, integrator, quirks)
     folder = None if xml_path is None else Path(xml_path).parent
     conic = page == 4 and scene.camera.type == "conic"
     used = {o.material_id for o in list(scene.spheres) + list(scene.blobs)}
@@ -441,6 +506,9 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
     w.open("scene", None, version="3.0.0")
     w.leaf("default", "path depth + 1; 11 = the tutorial's 10 segments", name="max_depth",
            value=str(model.max_depth))
+    if integrator == "tutorialpath":
+        w.leaf("default", "clean (path's expectation) or strict (the original's quirks)",
+               name="quirks", value=quirks)
     w.leaf("default", "samples per sub-sample" + (" (the scene's Complexity)"
                                                   if page == 4 else ""),
            name="spp", value=str(model.spp))
@@ -449,11 +517,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
                value=f"{e:.6g}")
     w.blank()
 
-    w.open("integrator", "the tutorial's transport: light sampling at every hit, mirror and "
-           "refraction continuations", type="path")
-    w.integer("max_depth", "$max_depth")
-    w.integer("rr_depth", "$max_depth", "no Russian roulette (the tutorial has none)")
-    w.close("integrator")
+    _integrator(w, integrator, page)
     w.blank()
 
     size = settings.film_size
@@ -467,7 +531,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
         _conic_sensor(w, src, scene, "camera", size, True, True,
                       "random" if model.stochastic else "fixed", film_note,
                       f"{scene_note}: Perspective.Type = conic, line "
-                      f"{src.line('Scene', 'Perspective.Type')}")
+                      f"{src.line('Scene', 'Perspective.Type')}", spp=model.spp)
         w.blank()
         _conic_sensor(w, src, scene, "probes", (scene.width, scene.height), False, False,
                       "probe", "W x H: sample2 = (x / W, 1 - y / H) for tutorial pixel (x, y)",

@@ -48,6 +48,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--port-mode", choices=("clean", "strict"), default="clean",
                    help="port mode (default clean, which Mitsuba reproduces; strict shows the "
                         "quirks the test detects)")
+    p.add_argument("--quirks", choices=("clean", "strict"), default="clean",
+                   help="strict: the Mitsuba side's tutorialpath integrator with the original's "
+                        "quirks against the port in strict mode (default clean: both clean)")
     p.add_argument("-D", "--define", metavar="NAME=VALUE", type=define, action="append", default=[],
                    help="XML <default> override on the Mitsuba side, e.g. -D max_depth=5")
     p.add_argument("--min-pass-rate", type=fraction, default=0.99, metavar="R",
@@ -77,11 +80,14 @@ def run(args: argparse.Namespace) -> int:
     from codermind_harness.sides import HarnessError
 
     defines = dict(args.define)
+    if args.quirks == "strict" and args.port_mode != "clean":
+        raise CodermindError("--quirks strict sets the port's mode (strict): drop --port-mode")
     if "spp" in defines:
         raise CodermindError("-D spp=...: use --spp (it sets both sides)")
     opt = Options(spp=args.spp, seed=args.seed, rect=args.rect, stride=args.stride,
                   exposure=args.exposure, blob_max_error=args.blob_max_error,
-                  port_mode=args.port_mode, out_dir=Path(args.output), defines=defines,
+                  port_mode="strict" if args.quirks == "strict" else args.port_mode,
+                  quirks=args.quirks, out_dir=Path(args.output), defines=defines,
                   thresholds=Thresholds(args.min_pass_rate, args.max_flip,
                                         exposure_alpha=args.exposure_alpha),
                   progress=not args.quiet, workers=args.workers,

@@ -1,5 +1,7 @@
 """Convert a tutorial scene file (versions 1.0, 1.1 and 1.3: pages 1, 2 and 4) to a readable,
-commented Mitsuba XML scene that uses this package's plugins and the built-in path tracer.
+commented Mitsuba XML scene that uses this package's plugins and its tutorialpath integrator
+(the tutorial's transport: all lights at every hit; --integrator path: the built-in path
+tracer, the same expectation, one light per hit; --quirks strict: the original's quirks).
 
 The model is chosen here and baked into the XML as <default> values (path depth from a bound
 of what deeper segments can add against --target; one sample per sub-sample when nothing is
@@ -39,6 +41,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "light, as the tutorial sums its lights at every hit) or 'sample' "
                         "(Mitsuba picks one light per hit; a deterministic scene then gets N^2 "
                         "samples, so that the plain mitsuba command is exact too)")
+    p.add_argument("--integrator", choices=("tutorialpath", "path"), default="tutorialpath",
+                   help="tutorialpath (default: every light with its own shadow ray at every "
+                        "hit, one render) or Mitsuba's built-in path (one light per hit)")
+    p.add_argument("--quirks", choices=("clean", "strict"), default="clean",
+                   help="tutorialpath: clean (default; path's expectation) or strict (the "
+                        "original programs' quirks, spec 2.6-2.7)")
     p.add_argument("-q", "--quiet", action="store_true", help="print neither model nor notes")
 
 
@@ -49,6 +57,9 @@ def _command_line(args: argparse.Namespace, scene: Path, out: Path) -> str:
                if getattr(args, flag) is not None]
     if getattr(args, "lights", None):
         options.append(f"lights={args.lights}")
+    for flag, default in (("integrator", "tutorialpath"), ("quirks", "clean")):
+        if getattr(args, flag, default) != default:
+            options.append(f"{flag}={getattr(args, flag)}")
     text = f"codermind convert {scene.name} -o {out.name}"
     return text + (f" with the options {' '.join(options)}" if options else "")
 
@@ -56,13 +67,22 @@ def _command_line(args: argparse.Namespace, scene: Path, out: Path) -> str:
 def run(args: argparse.Namespace) -> int:
     from codermind.tutorial.convert import convert_file
 
+    from codermind.errors import CodermindError
+    if args.quirks == "strict" and args.integrator == "path":
+        raise CodermindError("--quirks strict needs --integrator tutorialpath (path has no "
+                             "quirks)")
+    if args.lights and args.integrator != "path":
+        raise CodermindError("--lights applies to --integrator path (tutorialpath adds every "
+                             "light at every hit)")
     scene_path = Path(args.scene)
     out = Path(args.output) if args.output else Path.cwd() / (scene_path.stem + ".xml")
     if out.suffix.lower() != ".xml":
         out = out.with_suffix(".xml")
     result = convert_file(tutorial_scene(scene_path), out, target=args.target, max_depth=args.max_depth,
                           spp=args.spp, blob_max_error=args.blob_max_error,
-                          exposure=args.exposure, lights=args.lights, command=_command_line(args, scene_path, out))
+                          exposure=args.exposure, lights=args.lights,
+                          command=_command_line(args, scene_path, out),
+                          integrator=args.integrator, quirks=args.quirks)
     if not args.quiet:
         for w in result.parse_warnings:
             print(f"codermind: warning: {w}", file=sys.stderr)

@@ -1,0 +1,140 @@
+"""Equal-error speed of the page-4 scene with ``tutorialpath`` and Mitsuba's samplers, on a crop.
+
+    nice python benchmarks/bench_samplers.py [--rect 368,120,464,192] [--ref-spp 2048]
+
+Error as ``codermind chart`` measures it: relative MSE of the linear sub-sample means against
+a converged reference (``codermind_harness.metrics.rel_mse``). The original program's error
+at Complexity 256 (1024 samples per pixel) is stood in for by the strict port: its error
+against the converged STRICT reference (``tutorialpath`` strict, ``--ref-spp``) at
+Complexity 2, 4, 8, 16 (it needs 2 rays per sub-sample for its variance), fitted as a / C + floor (``chart.fit_noise_floor``) and evaluated at
+C = 256. Each sampler's clean error (against the converged CLEAN reference, another seed)
+over ``--spp`` then gives the CPU time to reach that error (log-log interpolation as
+``chart.time_to_reach``; beyond the sweep error ~ 1 / time from the nearest point), and the
+ratio to the original's time for the crop (145.7 s x crop share of the image: the original's
+cost per pixel is taken as uniform). CPU seconds of this process (all Dr.Jit threads) are
+used because the machine is shared; they are printed with the load. The sampler with the
+smallest time is the winner (``codermind convert`` writes it: codermind.tutorial.xml.RANDOM_SAMPLER).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT.parent / "shared" / "tutorial" / "page4" / "derived_scene_complexity256.txt"
+ORIGINAL_SECONDS = 145.7            # Complexity 256, 640x480, one core (issue 14)
+SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
+
+
+def cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def reach(times, errs, target: float) -> float:
+    """CPU time at which error = target: log-log interpolation between the bracketing points;
+    outside the sweep, error ~ 1 / time from the nearest point (noise-limited)."""
+    pts = sorted(zip(times, errs))
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if e1 <= target <= e0 and e0 > e1 > 0:
+            f = (np.log(e0) - np.log(target)) / (np.log(e0) - np.log(e1))
+            return float(np.exp(np.log(t0) + f * (np.log(t1) - np.log(t0))))
+    t, e = min(pts, key=lambda q: abs(np.log(q[1] / target)))
+    return t * e / target
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scene", type=Path, default=SCENE)
+    p.add_argument("--rect", default="368,120,464,192")
+    p.add_argument("--ref-spp", type=int, default=2048)
+    p.add_argument("--spp", default="4,16,64,256")  # squares, powers of 2
+    p.add_argument("--port-c", default="2,4,8,16")
+    p.add_argument("--samplers", default=",".join(SAMPLERS))
+    args = p.parse_args()
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+    import codermind  # noqa: F401
+    from codermind.tutorial.render import render_linear
+    from codermind_harness import sides
+    from codermind_harness.chart import fit_noise_floor
+    from codermind_harness.metrics import rel_mse
+
+    rect = tuple(int(v) for v in args.rect.split(","))
+    scene_txt = sides.parse(args.scene)
+    grid = sides.Grid.of(scene_txt.width, scene_txt.height, scene_txt.page, rect)
+    folder = Path(tempfile.mkdtemp(prefix="bench_samplers_"))
+    xml = sides.convert_xml(args.scene, scene_txt, folder, name="page4.xml")
+    text = xml.read_text()
+    exposure = sides.port_exposure(scene_txt, 0, "strict")
+    print(f"{args.scene.name}, tutorial rect {rect} ({grid.pixels} pixels), "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+
+    def scene_with(sampler: str, quirks: str = "clean"):
+        t = re.sub(r'<sampler type="\w+">  <!-- lens and roulette draws -->',
+                   f'<sampler type="{sampler}">', text, count=1)
+        path = folder / f"{sampler}_{quirks}.xml"
+        path.write_text(t)
+        scene, _ = sides.load_mitsuba(path, grid, {"quirks": quirks, "spp": "1"})
+        return scene
+
+    def render(scene, spp: int, seed: int):
+        # untimed, at the same count: a sampler whose kernel depends on the sample count
+        # (stratified and the others bake it in) compiles here, not in the timed render
+        render_linear(scene, spp, 777)
+        dr.sync_thread()
+        c0 = cpu()
+        mean, _, _, _ = render_linear(scene, spp, seed)
+        dr.sync_thread()
+        return grid.take(mean.astype(np.float64)), cpu() - c0
+
+    refs = {}
+    for quirks in ("clean", "strict"):
+        refs[quirks], c = render(scene_with("independent", quirks), args.ref_spp, 4242)
+        print(f"reference {quirks}: {args.ref_spp} spp, {c:.1f} CPU s")
+
+    port_c = [int(v) for v in args.port_c.split(",")]
+    port_err = []
+    for c in port_c:
+        side = sides.render_port(scene_txt, grid, c, 1, exposure, "strict", True, 2, False)
+        port_err.append(rel_mse(side.linear, refs["strict"]))
+        print(f"  port strict C={c}: relMSE {port_err[-1]:.4g}")
+    a, b = fit_noise_floor(port_c, port_err)
+    target = a / 256 + b
+    share = grid.pixels / (scene_txt.width * scene_txt.height)
+    original = ORIGINAL_SECONDS * share
+    print(f"port fit: relMSE = {a:.4g} / C + {b:.3g}; at C = 256 (the original's 1024 spp): "
+          f"{target:.4g}; the original's time for this crop: {original:.3f} s")
+
+    spps = [int(v) for v in args.spp.split(",")]
+    best = None
+    print(f"{'sampler':12s} " + " ".join(f"{'spp ' + str(s):>18s}" for s in spps)
+          + f" {'CPU s to target':>16s} {'vs original':>12s}")
+    for sampler in args.samplers.split(","):
+        scene = scene_with(sampler)
+        times, errs = [], []
+        for s in spps:
+            lin, c = render(scene, s, 7)
+            times.append(c)
+            errs.append(rel_mse(lin, refs["clean"]))
+        t = reach(times, errs, target)
+        cells = " ".join(f"{e:9.3g} {c:7.2f}s" for e, c in zip(errs, times))
+        print(f"{sampler:12s} {cells} {t:16.3f} {original / t:11.1f}x", flush=True)
+        if best is None or t < best[1]:
+            best = (sampler, t)
+    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error); "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Integrator plugins (one module per XML type)."""

@@ -1,0 +1,303 @@
+from __future__ import annotations  # Delayed parsing of type annotations
+
+import drjit as dr
+import mitsuba as mi
+
+QUIRKS = ("clean", "strict")
+#: Mitsuba's shadow-ray epsilon (``spawn_ray_to`` shortens a shadow ray by it).
+SHADOW_EPSILON = mi.math.ShadowEpsilon
+
+
+def _mis_weight(pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
+    """Power heuristic, as Mitsuba's ``path``."""
+    a2 = dr.square(pdf_a)
+    return dr.detach(dr.select(pdf_a > 0, a2 / dr.fma(pdf_b, pdf_b, a2), 0.0))
+
+
+def _not(mask: mi.Bool) -> mi.Bool:
+    """Logical not that also works on the Python bools of scalar variants (~True == -2)."""
+    return mask ^ True
+
+
+class TutorialIntegrator(mi.SamplingIntegrator):
+    r"""
+    .. _integrator-tutorialpath:
+
+    The Codermind tutorial's transport (:monosp:`tutorialpath`)
+    ------------------------------------------------------------
+
+    .. pluginparameters::
+
+     * - max_depth
+       - |int|
+       - Longest path depth, as Mitsuba's ``path`` counts it (1: only what the camera rays
+         see; -1: unlimited). The tutorial's 10 segments are 11 (Default: 11)
+
+     * - quirks
+       - |string|
+       - ``clean``: the expectation of the built-in :monosp:`path` with the same
+         ``max_depth`` and no Russian roulette. ``strict``: the tutorial programs' quirks
+         that Mitsuba's geometry allows (below) (Default: ``clean``)
+
+    A path tracer written for the tutorial's scenes (:monosp:`tutorial` BSDFs, optionally
+    inside :monosp:`noisebump`; :monosp:`tutorialpoint` or other delta lights; the
+    :monosp:`cubemap` background), faster than :monosp:`path` on them:
+
+    - at every hit, EVERY delta light (``point``, ``spot``, ``tutorialpoint``, ...) is
+      added with its own shadow ray, as the tutorial sums its lights (``path`` picks one);
+      the shadow ray is traced only in lanes where the BSDF's ``eval`` towards the light
+      is non-zero (none inside the tutorial's glass, none on a pure mirror);
+    - the path continues with the BSDF's own ``sample`` (the tutorial material's
+      roulette) and its weight; there is no Russian roulette (the tutorial has none);
+    - a ray that escapes adds the environment emitter (the cube map), one that hits an
+      area light adds its emission, both with ``path``'s MIS weight (1 after a delta
+      event, which is every event of the tutorial material);
+    - other light sources (area lights, an environment with a non-zero
+      ``sampling_weight`` that is not a ``cubemap`` in ``background`` mode) are sampled
+      as ``path`` samples them: one emitter sample per hit from the scene's emitter
+      distribution, MIS with the BSDF's pdf; a sample that picks a delta light is
+      dropped (the delta lights were all added), which keeps the estimate unbiased.
+      ``strict`` refuses such emitters (the tutorial has none) with a one-line error.
+
+    **clean**: the same expected value per pixel as :monosp:`path` (``rr_depth`` >=
+    ``max_depth``) on every scene; with one delta light and nothing random the same
+    value per sample.
+
+    **strict** (spec 2.6, 2.7; every BSDF must be :monosp:`tutorial`, optionally in
+    :monosp:`noisebump`, which expose the per-hit quantities through
+    ``eval_attribute_1``): with the tutorial's segment limit
+    :math:`S` = ``max_depth`` - 1,
+
+    - shadow rays of pages 2 and 4 test occluders up to the SQUARED light distance;
+    - turbulence and marble (a spatially varying ``diffuse``) get the path coefficient
+      twice in their Lambert term;
+    - a "diffuse" roulette draw inside an object re-draws at the same hit, each try
+      consuming a segment (the number of failed tries is drawn at once, geometric with
+      the diffuse probability); when the tries run out, the cube map is added along
+      the current direction;
+    - after the :math:`S`-th segment the cube map is added along the next direction
+      without tracing it;
+    - the Fresnel index :math:`n_1` is carried along the path (1 at the camera,
+      :math:`n_2` after each refraction); where it disagrees with the BSDF's side test
+      and equals :math:`n_2` (the blob's spots where the side test says "inside" for a
+      ray coming from the air, or the reverse), :math:`R = 0` and the ray refracts
+      unbent, as the tutorial computes it.
+
+    Not reproduced: the tutorial's zero-normal stop (Mitsuba's shapes have no zero
+    normal), a carried index that differs from both sides' indices (two different
+    glasses along one path; no tutorial scene has that).
+
+    .. tabs::
+
+        .. code-tab:: xml
+
+            <integrator type="tutorialpath">
+                <integer name="max_depth" value="11"/>
+                <string name="quirks" value="clean"/>
+            </integrator>
+    """
+
+    #: Every delta light is added at every hit (``codermind render`` needs no render per light).
+    sums_lights = True
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props)
+        depth = props.get("max_depth", 11)
+        if isinstance(depth, bool) or not isinstance(depth, int) or depth < -1:
+            raise ValueError(f"tutorialpath: 'max_depth' must be an integer >= -1, got {depth!r}")
+        self.max_depth = depth
+        self.quirks = str(props.get("quirks", "clean"))
+        if self.quirks not in QUIRKS:
+            raise ValueError(f"tutorialpath: 'quirks' must be 'clean' or 'strict', got "
+                             f"{self.quirks!r}")
+        # scalar variants run the loop once per ray and have no null BSDF to call on a miss
+        # (si.bsdf() is None there): a stand-in whose every call is masked off
+        self.scalar = not dr.is_jit_v(mi.Float)
+        self.stand_in = mi.load_dict({"type": "tutorial"}) if self.scalar else None
+
+    # -- the scene's emitters, sorted once per kernel trace ---------------------------------
+    def _emitters(self, scene: mi.Scene):
+        delta, sampled = [], []
+        for e in scene.emitters():
+            if mi.has_flag(e.flags(), mi.EmitterFlags.Delta):
+                delta.append(e)
+            elif e.sampling_weight() > 0 and getattr(e, "mode", None) != "background":
+                sampled.append(e)
+        if self.quirks == "strict":
+            if sampled:
+                raise ValueError(f"tutorialpath: quirks=strict has no light source "
+                                 f"{sampled[0].id() or type(sampled[0]).__name__!r} in the "
+                                 "tutorial (area or environment light): use quirks=clean")
+            for shape in scene.shapes():
+                bsdf = shape.bsdf()
+                if bsdf is not None and not bsdf.has_attribute("tutorial_page"):
+                    raise ValueError(f"tutorialpath: quirks=strict needs tutorial BSDFs, shape "
+                                     f"{shape.id()!r} has {type(bsdf).__name__}")
+        return delta, bool(sampled)
+
+    @staticmethod
+    def _environment(scene: mi.Scene, d: mi.Vector3f, active: mi.Bool) -> mi.Spectrum:
+        """The environment emitter's radiance from direction ``d`` (world)."""
+        env = scene.environment()
+        if env is None:
+            return mi.Spectrum(0.0)
+        si = dr.zeros(mi.SurfaceInteraction3f) if dr.is_jit_v(mi.Float) else \
+            mi.SurfaceInteraction3f()
+        si.wi = -d
+        si.t = dr.inf
+        return env.eval(si, active)
+
+    @dr.syntax
+    def sample(self, scene: mi.Scene, sampler: mi.Sampler, ray: mi.RayDifferential3f,
+               medium: mi.Medium = None, active: mi.Bool = True
+               ) -> tuple[mi.Spectrum, mi.Bool, list[mi.Float]]:
+        strict = self.quirks == "strict"
+        deltas, generic = self._emitters(scene)
+        max_depth = mi.UInt32(0xFFFFFFFF if self.max_depth < 0 else self.max_depth)
+        segments = mi.Float(float("inf") if self.max_depth < 0 else self.max_depth - 1)
+        ctx = mi.BSDFContext()
+        lambert_ctx = mi.BSDFContext()
+        lambert_ctx.type_mask = mi.BSDFFlags.DiffuseReflection
+
+        ray = mi.Ray3f(ray)
+        L = mi.Spectrum(0.0)
+        beta = mi.Spectrum(1.0)
+        depth = mi.UInt32(0)
+        n1 = mi.Float(1.0)                        # strict: the path's Fresnel index
+        prev_si = dr.zeros(mi.Interaction3f)
+        prev_pdf = mi.Float(1.0)
+        prev_delta = mi.Bool(True)
+        valid_ray = mi.Bool(scene.environment() is not None)
+        active = mi.Bool(active)
+
+        while active:
+            si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All,
+                                     coherent=(depth == 0), active=active)
+            valid_ray |= (depth == 0) & si.is_valid()
+
+            # Emission seen by this ray: the environment on escape, an area light on a hit
+            emitter = si.emitter(scene)
+            mis = mi.Float(1.0)
+            if dr.hint(generic, mode="scalar"):
+                ds_hit = mi.DirectionSample3f(scene, si, prev_si)
+                em_pdf = scene.pdf_emitter_direction(prev_si, ds_hit, _not(prev_delta))
+                mis = dr.select(prev_delta, 1.0, _mis_weight(prev_pdf, em_pdf))
+            if dr.hint(self.scalar, mode="scalar"):
+                if emitter is not None:
+                    L += beta * mis * emitter.eval(si, active)
+            else:
+                L += beta * mis * emitter.eval(si, active)
+
+            active_next = active & si.is_valid() & (depth + 1 < max_depth)
+            if dr.hint(self.scalar, mode="scalar"):
+                bsdf = si.bsdf(ray) if si.is_valid() else self.stand_in
+            else:
+                bsdf = si.bsdf(ray)
+            d = mi.Vector3f(ray.d)
+
+            if dr.hint(strict, mode="scalar"):
+                page = bsdf.eval_attribute_1("tutorial_page", si, active_next)
+                textured = bsdf.eval_attribute_1("tutorial_textured", si, active_next) > 0
+                inside = bsdf.eval_attribute_1("tutorial_inside", si, active_next) > 0
+                density = bsdf.eval_attribute_1("tutorial_density", si, active_next)
+                refraction = bsdf.eval_attribute_1("tutorial_refraction", si, active_next)
+                events = bsdf.eval_attribute_1("tutorial_events", si, active_next)
+                squared = page >= 2
+                # the carried index against the side's: n1 == n2 gives R = 0, unbent
+                n2 = dr.select(inside, 1.0, density)
+                n1_side = dr.select(inside, density, 1.0)
+                unbent = (page == 4) & (density != 0) & (n1 != n1_side) & (n1 == n2)
+                total = dr.select(unbent, refraction, events)
+                clean_diffuse = 1.0 - events
+                lit_scale = dr.select(unbent, dr.select(clean_diffuse != 0, (1.0 - refraction)
+                                                        / dr.select(clean_diffuse != 0,
+                                                                    clean_diffuse, 1.0), 0.0),
+                                      1.0)
+
+            # Every delta light, each with its own shadow ray where the BSDF is lit
+            for light in deltas:
+                ds, em_weight = light.sample_direction(si, mi.Point2f(0.5), active_next)
+                wo = si.to_local(ds.d)
+                value = bsdf.eval(ctx, si, wo, active_next)
+                if dr.hint(strict, mode="scalar"):
+                    lambert = bsdf.eval(lambert_ctx, si, wo, active_next & textured)
+                    value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
+                        * lit_scale
+                lit = active_next & (dr.max(dr.abs(value * em_weight)) > 0)
+                shadow = si.spawn_ray_to(ds.p)
+                if dr.hint(strict, mode="scalar"):
+                    far = si.spawn_ray(ds.d)
+                    far.maxt = dr.square(ds.dist) * (1.0 - SHADOW_EPSILON)
+                    shadow = dr.select(squared, far, shadow)
+                blocked = scene.ray_test(shadow, lit)
+                L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
+
+            # Other light sources, as `path` samples them (never in strict mode)
+            if dr.hint(generic, mode="scalar"):
+                active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+                ds, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True,
+                                                               active_em)
+                active_em &= (ds.pdf != 0) & _not(ds.delta)
+                wo = si.to_local(ds.d)
+                value, value_pdf = bsdf.eval_pdf(ctx, si, wo, active_em)
+                L += dr.select(active_em, beta * _mis_weight(ds.pdf, value_pdf) * value
+                               * em_weight, 0.0)
+
+            # The BSDF's own continuation (the tutorial material's roulette)
+            u = sampler.next_1d()
+            bs, weight = bsdf.sample(ctx, si, u, sampler.next_2d(), active_next)
+            wo_world = si.to_world(bs.wo)
+            step = mi.Float(1.0)
+            if dr.hint(strict, mode="scalar"):
+                # inside: failed 'diffuse' draws before a reflect/refract, each one segment
+                p_fail = 1.0 - dr.minimum(total, 1.0)
+                v = sampler.next_1d()
+                fails = dr.select(p_fail <= 0, 0.0, dr.select(
+                    p_fail >= 1, dr.inf,
+                    dr.floor(dr.log(1.0 - v) / dr.log(dr.select((p_fail > 0) & (p_fail < 1),
+                                                                p_fail, 0.5)))))
+                retrace = active_next & (page == 4) & inside
+                stuck = retrace & (mi.Float(depth) + fails >= segments)
+                L += dr.select(stuck, beta * self._environment(scene, d, stuck), 0.0)
+                step = dr.select(retrace, 1.0 + fails, 1.0)
+                refracted = mi.has_flag(bs.sampled_type, mi.BSDFFlags.DeltaTransmission)
+                # unbent lanes: R = 0, so refraction (weight Refraction, direction d) with
+                # probability Refraction in front; inside it is the only event left
+                unbent_go = unbent & (inside | (u < refraction))
+                weight = dr.select(unbent, dr.select(unbent_go, mi.Spectrum(refraction), 0.0),
+                                   weight)
+                wo_world = dr.select(unbent, d, wo_world)
+                n1 = dr.select(_not(unbent) & refracted & active_next & (dr.max(weight) > 0), n2, n1)
+                weight = dr.select(stuck, 0.0, weight)
+
+            beta *= weight
+            active_next &= dr.max(dr.abs(beta)) != 0
+            prev_si = mi.Interaction3f(si)
+            prev_pdf = bs.pdf
+            prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+            ray = si.spawn_ray(wo_world)
+
+            if dr.hint(strict, mode="scalar"):
+                # the segment limit: the cube map along the next direction, not traced
+                at_limit = active_next & (mi.Float(depth) + step >= segments)
+                L += dr.select(at_limit, beta * self._environment(scene, wo_world, at_limit),
+                               0.0)
+                active_next &= _not(at_limit)
+                depth = mi.UInt32(dr.minimum(mi.Float(depth) + step, 4.0e9))
+            else:
+                depth += 1
+            active = active_next
+
+        return L, valid_ray, []
+
+    def aov_names(self) -> list[str]:
+        return []
+
+    def traverse(self, callback: mi.TraversalCallback) -> None:
+        callback.put("max_depth", self.max_depth, mi.ParamFlags.NonDifferentiable)
+
+    def to_string(self) -> str:
+        return f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  quirks = {self.quirks}\n]"
+
+
+mi.register_integrator("tutorialpath", lambda props, cls=TutorialIntegrator: cls(props))
