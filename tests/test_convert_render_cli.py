@@ -119,8 +119,8 @@ def test_probe_rays_are_the_cameras_rays_at_the_probe_positions(llvm):
     radiance equals the rendered film's sub-sample at the probe's tutorial pixel (spec 2.5:
     probe (i s, j s) is the pinhole ray of sub-sample (0, 0) of that pixel), channel by
     channel. A mix-up of probes and channels (a (3, n) array reshaped to (n, 3)) fails it."""
-    from codermind import tutorial_render as tr
-    from codermind.tutorial_image import probe_positions
+    from codermind.tutorial import render as tr
+    from codermind.tutorial.image import probe_positions
     scene, settings = tr.load(SCENES / "page3.xml")
     scenes = tr.light_scenes(scene)
     probes = tr.probe_radiance(scenes, settings, seed=0)
@@ -138,7 +138,7 @@ def test_mitsuba_auto_exposure_matches_the_originals(llvm, tutorial_dir, tmp_pat
     200 random sequences has mean 2.1295 and sd 0.016. The converted original scene's probes
     traced through Mitsuba (its own random numbers) over 20 seeds: mean within 2.1295 +- 0.01
     (the 20-seed mean's sd is 0.0036), sd within a factor 1.6 of 0.016."""
-    from codermind import tutorial_render as tr
+    from codermind.tutorial import render as tr
     from codermind.tutorial_convert import convert_scene, parse
     source = tutorial_dir / "page4" / "scene.txt"
     xml = tmp_path / "page4.xml"
