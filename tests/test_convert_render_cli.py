@@ -139,7 +139,8 @@ def test_mitsuba_auto_exposure_matches_the_originals(llvm, tutorial_dir, tmp_pat
     traced through Mitsuba (its own random numbers) over 20 seeds: mean within 2.1295 +- 0.01
     (the 20-seed mean's sd is 0.0036), sd within a factor 1.6 of 0.016."""
     from codermind.tutorial import render as tr
-    from codermind.tutorial_convert import convert_scene, parse
+    from codermind.tutorial.convert import convert_scene
+    from codermind_ref import parse_scene as parse
     source = tutorial_dir / "page4" / "scene.txt"
     xml = tmp_path / "page4.xml"
     xml.write_text(convert_scene(parse(source), xml, max_depth=11).xml)   # faces by path
