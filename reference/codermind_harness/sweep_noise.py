@@ -1,8 +1,8 @@
 """Sweep: the ``perlin`` texture (float32, Dr.Jit) against the noise coordinate magnitude.
 
 At magnitude M the texture is evaluated at random points with coordinates in +-[M, 2M] and
-compared with the port's float64 Perlin noise (``codermind_ref.perlin``, bit-identical to
-Perlin's reference) at the float64 point (the total error a user sees) and at the point
+compared with the port's float64 noise (``codermind_ref.perlin``: Perlin's improved noise
+with the tutorial's gradient, as the texture's default) at the float64 point (the total error a user sees) and at the point
 rounded to float32 (the error of the float32 arithmetic alone).
 """
 
