@@ -236,3 +236,37 @@ def test_scalar_render_of_all_material_plugins(scalar):
     image = np.array(mi.render(scene))
     assert image.shape == (8, 12, 3) and np.isfinite(image).all()
     assert all(image[:, k:k + 4].max() > 0 for k in (0, 4, 8))     # all three spheres
+
+
+@pytest.mark.parametrize("wrapped", [False, True])
+def test_fused_eval_sample_equals_eval_and_sample(llvm, wrapped):
+    """``eval_sample`` (the one call per hit of ``tutorialpath``) gives exactly ``eval``
+    towards each direction and ``sample`` (internal agreement of the two code paths; the
+    integrator's expectation is checked against ``path`` in test_tutorialpath.py). Glass
+    seen from both sides, with a turbulence diffuse colour."""
+    mi = llvm
+    import drjit as dr
+    k = 1000
+    p, n, wi = random_setup(k, 5)
+    wi[k // 2:] *= -1                                   # half of the hits from inside
+    inner = {"type": "tutorial", "diffuse": {"type": "turbulence"}, "specular": 1.2,
+             "power": 60.0, "reflection": 0.9, "refraction": 0.9, "density": 2.0}
+    bsdf = mi.load_dict({"type": "noisebump", "bumplevel": B, "inner": inner} if wrapped
+                        else inner)
+    si = interaction(mi, dr, p, n, wi)
+    rng = np.random.default_rng(6)
+    wos = [si.sh_frame.to_local(mi.Vector3f(normalize(rng.normal(size=(k, 3))).T
+                                            .astype(np.float32))) for _ in range(2)]
+    u = mi.Float(rng.uniform(size=k).astype(np.float32))
+    u2 = mi.Point2f(0.5)
+    ctx = mi.BSDFContext()
+    values, bs, weight = bsdf.eval_sample(ctx, si, wos, u, u2, True)
+    bs_ref, weight_ref = bsdf.sample(ctx, si, u, u2, True)
+    for wo, value in zip(wos, values):
+        ref = bsdf.eval(ctx, si, wo, True).numpy()
+        assert np.abs(ref).max() > 0
+        np.testing.assert_array_equal(value.numpy(), ref)
+    np.testing.assert_array_equal(weight.numpy(), weight_ref.numpy())
+    np.testing.assert_array_equal(bs.wo.numpy(), bs_ref.wo.numpy())
+    np.testing.assert_array_equal(bs.pdf.numpy(), bs_ref.pdf.numpy())
+    np.testing.assert_array_equal(bs.sampled_type.numpy(), bs_ref.sampled_type.numpy())

@@ -154,6 +154,29 @@ class NoiseBumpBSDF(mi.BSDF):
         bs.pdf = dr.select(ok, bs.pdf, 0.0)
         return bs, weight & ok
 
+    def eval_sample(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f,
+                    wos: list[mi.Vector3f], sample1: mi.Float, sample2: mi.Point2f,
+                    active: mi.Bool = True
+                    ) -> tuple[list[mi.Spectrum], mi.BSDFSample3f, mi.Spectrum]:
+        """``[eval(wo) for wo in wos]`` and ``sample`` in one call, with ONE perturbed frame
+        (one noise evaluation per hit instead of one per light and one for the sample)."""
+        perturbed = self._perturbed(si, active)
+        perturbed_wos = [self._local(si, perturbed, wo) for wo in wos]
+        masks = [active & self._same_side(wo, pwo) for wo, pwo in zip(wos, perturbed_wos)]
+        fused = getattr(self.nested, "eval_sample", None)
+        if fused is not None and not self.leak_check:
+            values, bs, weight = fused(ctx, perturbed, perturbed_wos, sample1, sample2, active)
+        else:
+            values = [self.nested.eval(ctx, perturbed, pwo, m)
+                      for pwo, m in zip(perturbed_wos, masks)]
+            bs, weight = self.nested.sample(ctx, perturbed, sample1, sample2, active)
+        values = [v & m for v, m in zip(values, masks)]
+        perturbed_wo = bs.wo
+        bs.wo = si.sh_frame.to_local(perturbed.sh_frame.to_world(perturbed_wo))
+        ok = self._same_side(bs.wo, perturbed_wo)
+        bs.pdf = dr.select(ok, bs.pdf, 0.0)
+        return values, bs, weight & ok
+
     def _local(self, si, perturbed, wo):
         return perturbed.sh_frame.to_local(si.sh_frame.to_world(wo))
 

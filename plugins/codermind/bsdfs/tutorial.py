@@ -222,18 +222,28 @@ class TutorialBSDF(mi.BSDF):
         r, cos_t, eta = self._fresnel(cos_i, inside)
         return inside, self.reflection * r, self.refraction * (1.0 - r), cos_i, cos_t, eta
 
-    def _lighting(self, ctx, si, wo, active) -> mi.Spectrum:
+    def _colours(self, ctx, si, active):
+        """The ``diffuse`` and ``specular`` colours at the hit (None where ``ctx`` disables
+        the lobe): evaluated once per hit, shared by every light."""
+        diffuse = self.diffuse.eval(si, active) \
+            if ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0) else None
+        specular = self.specular.eval(si, active) \
+            if ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1) else None
+        return diffuse, specular
+
+    def _lighting(self, ctx, si, wo, active, colours=None) -> mi.Spectrum:
         """Lambert + unnormalized Blinn for a light in direction wo (cos_o > 0)."""
+        diffuse, specular = self._colours(ctx, si, active) if colours is None else colours
         cos_o = mi.Frame3f.cos_theta(wo)
         value = mi.Spectrum(0.0)
-        if ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0):
-            value += self.diffuse.eval(si, active) * cos_o
-        if ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1):
+        if diffuse is not None:
+            value += diffuse * cos_o
+        if specular is not None:
             h = si.wi + wo
             len2 = dr.squared_norm(h)
             cos_h = dr.maximum(h.z * dr.rsqrt(dr.select(len2 > 0, len2, 1.0)), 0.0)
             blinn = mi.Float(1.0) if self.power == 0 else dr.power(cos_h, self._power())
-            value += self.specular.eval(si, active) * dr.select(len2 > 0, blinn, 0.0)
+            value += specular * dr.select(len2 > 0, blinn, 0.0)
         return value & (active & (cos_o > 0))
 
     # -- mi.BSDF interface ----------------------------------------------------------------
@@ -255,6 +265,25 @@ class TutorialBSDF(mi.BSDF):
 
     def sample(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f, sample1: mi.Float,
                sample2: mi.Point2f, active: mi.Bool = True) -> tuple[mi.BSDFSample3f, mi.Spectrum]:
+        return self._sample(ctx, si, sample1, active,
+                            self._events(si) if self.page == 4 else None)
+
+    def eval_sample(self, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f,
+                    wos: list[mi.Vector3f], sample1: mi.Float, sample2: mi.Point2f,
+                    active: mi.Bool = True
+                    ) -> tuple[list[mi.Spectrum], mi.BSDFSample3f, mi.Spectrum]:
+        """``[eval(wo) for wo in wos]`` and ``sample`` in one call (what the
+        :monosp:`tutorialpath` integrator needs at a hit): the Fresnel terms and the
+        colours (a procedural texture) are computed once, not once per light."""
+        events = self._events(si) if self.page == 4 else None
+        lit = active if self.page != 4 else active & _not(events[0])
+        colours = self._colours(ctx, si, lit)
+        scale = 1.0 if self.page != 4 else 1.0 - events[1] - events[2]
+        values = [self._lighting(ctx, si, wo, lit, colours) * scale for wo in wos]
+        return (values,) + self._sample(ctx, si, sample1, active, events)
+
+    def _sample(self, ctx, si, sample1, active, events):
+        """``sample`` from the page-4 ``events`` (see :meth:`_events`; None on pages 1-2)."""
         wi = si.wi
         bs = dr.zeros(mi.BSDFSample3f)
         bs.eta = 1.0
@@ -268,7 +297,7 @@ class TutorialBSDF(mi.BSDF):
             bs.sampled_component = mi.UInt32(2)
             return bs, mi.Spectrum(self.reflection) & ok
 
-        inside, rf, tr, cos_i, cos_t, eta = self._events(si)
+        inside, rf, tr, cos_i, cos_t, eta = events
         if not can_reflect:
             rf = mi.Float(0.0)
         if not ctx.is_enabled(mi.BSDFFlags.DeltaTransmission, 3):

@@ -19,6 +19,20 @@ def _not(mask: mi.Bool) -> mi.Bool:
     return mask ^ True
 
 
+def _eval_sample(bsdf: mi.BSDF, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f,
+                 wos: list[mi.Vector3f], sample1: mi.Float, sample2: mi.Point2f,
+                 active: mi.Bool = True):
+    """``[bsdf.eval(wo) for wo in wos]`` and ``bsdf.sample``: one call of the BSDF's fused
+    ``eval_sample`` where it has one (``tutorial``, ``noisebump``: the bump, the Fresnel
+    terms and the textures once per hit), else its separate methods (Mitsuba's BSDFs)."""
+    fused = getattr(bsdf, "eval_sample", None)
+    if fused is not None:
+        return fused(ctx, si, wos, sample1, sample2, active)
+    values = [bsdf.eval(ctx, si, wo, active) for wo in wos]
+    bs, weight = bsdf.sample(ctx, si, sample1, sample2, active)
+    return values, bs, weight
+
+
 class TutorialIntegrator(mi.SamplingIntegrator):
     r"""
     .. _integrator-tutorialpath:
@@ -214,11 +228,35 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                                                                     clean_diffuse, 1.0), 0.0),
                                       1.0)
 
-            # Every delta light, each with its own shadow ray where the BSDF is lit
-            for light in deltas:
-                ds, em_weight = light.sample_direction(si, mi.Point2f(0.5), active_next)
+            # Other light sources, as `path` samples them (never in strict mode)
+            if dr.hint(generic, mode="scalar"):
+                active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+                ds, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True,
+                                                               active_em)
+                active_em &= (ds.pdf != 0) & _not(ds.delta)
                 wo = si.to_local(ds.d)
-                value = bsdf.eval(ctx, si, wo, active_next)
+                value, value_pdf = bsdf.eval_pdf(ctx, si, wo, active_em)
+                L += dr.select(active_em, beta * _mis_weight(ds.pdf, value_pdf) * value
+                               * em_weight, 0.0)
+
+            # Every delta light's direction, then ONE call of the BSDF: its value towards each
+            # light and its own continuation (the tutorial material's roulette)
+            samples = [light.sample_direction(si, mi.Point2f(0.5), active_next)
+                       for light in deltas]
+            wos = [si.to_local(sample[0].d) for sample in samples]
+            u = sampler.next_1d()
+            u2 = sampler.next_2d()
+            if dr.hint(self.scalar, mode="scalar"):
+                values, bs, weight = _eval_sample(bsdf, ctx, si, wos, u, u2, active_next)
+            else:
+                values, bs, weight = dr.dispatch(bsdf, _eval_sample, ctx, si, wos, u, u2,
+                                                 active=active_next)
+
+            # each delta light with its own shadow ray where the BSDF is lit
+            for k in range(len(deltas)):
+                ds, em_weight = samples[k]
+                wo = wos[k]
+                value = values[k]
                 if dr.hint(strict, mode="scalar"):
                     lambert = bsdf.eval(lambert_ctx, si, wo, active_next & textured)
                     value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
@@ -232,20 +270,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 blocked = scene.ray_test(shadow, lit)
                 L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
 
-            # Other light sources, as `path` samples them (never in strict mode)
-            if dr.hint(generic, mode="scalar"):
-                active_em = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-                ds, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True,
-                                                               active_em)
-                active_em &= (ds.pdf != 0) & _not(ds.delta)
-                wo = si.to_local(ds.d)
-                value, value_pdf = bsdf.eval_pdf(ctx, si, wo, active_em)
-                L += dr.select(active_em, beta * _mis_weight(ds.pdf, value_pdf) * value
-                               * em_weight, 0.0)
-
             # The BSDF's own continuation (the tutorial material's roulette)
-            u = sampler.next_1d()
-            bs, weight = bsdf.sample(ctx, si, u, sampler.next_2d(), active_next)
             wo_world = si.to_world(bs.wo)
             step = mi.Float(1.0)
             if dr.hint(strict, mode="scalar"):
@@ -272,9 +297,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
             beta *= weight
             active_next &= dr.max(dr.abs(beta)) != 0
-            prev_si = mi.Interaction3f(si)
-            prev_pdf = bs.pdf
-            prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+            if dr.hint(generic, mode="scalar"):
+                # only the MIS of sampled emitters reads them (else loop-invariant: not carried)
+                prev_si = mi.Interaction3f(si)
+                prev_pdf = bs.pdf
+                prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
             ray = si.spawn_ray(wo_world)
 
             if dr.hint(strict, mode="scalar"):
