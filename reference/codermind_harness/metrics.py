@@ -211,3 +211,142 @@ def exposure_test(a, b, alpha: float = EXPOSURE_ALPHA, rtol: float = RTOL,
     df = (va + vb) ** 2 / (va * va / (a.size - 1) + vb * vb / (b.size - 1))
     p = float(2.0 * student_t.sf(abs(t), df))
     return ExposureTest(p >= alpha, "welch", t=float(t), df=float(df), p=p, **common)
+
+
+# -- a reference image as the other side (``codermind compare --reference``) ----------------
+
+#: Standard deviation, in pixels, of the Gaussian that blurs a difference image.
+BLUR_SIGMA = 3.0
+
+
+@dataclass
+class ByteAgreement:
+    """Two 8-bit images compared exactly (:func:`byte_agreement`)."""
+    identical: float           #: share of bytes equal
+    within_one: float          #: share of bytes within 1 level
+    max_diff: int
+    bytes: int
+    diff_map: np.ndarray       #: int (H, W): largest |difference| over the channels
+
+
+def byte_agreement(a: np.ndarray, b: np.ndarray) -> ByteAgreement:
+    """Identical bytes and bytes within one level of two uint8 (H, W, 3) images."""
+    d = np.abs(np.asarray(a, dtype=np.int64) - np.asarray(b, dtype=np.int64))
+    return ByteAgreement(float((d == 0).mean()), float((d <= 1).mean()), int(d.max()),
+                         int(d.size), d.max(axis=2))
+
+
+def _kernel(sigma: float) -> np.ndarray:
+    r = max(1, int(math.ceil(3.0 * sigma)))
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    return k / k.sum()
+
+
+def _separable(image: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The 2-D correlation of each channel with k (x) k, zeros outside the image."""
+    from scipy.ndimage import correlate1d
+    out = correlate1d(image, k, axis=0, mode="constant", cval=0.0)
+    return correlate1d(out, k, axis=1, mode="constant", cval=0.0)
+
+
+@dataclass
+class BlurTest:
+    """The Gaussian-blurred difference against the noise floor (:func:`blur_test`)."""
+    passed: bool
+    sigma: float               #: the blur's sd, pixels
+    tests: int                 #: pixels x channels
+    alpha: float               #: per-test level after the Sidak correction
+    dof: float                 #: degrees of freedom of the local variance estimate
+    z_critical: float          #: |t| above which a blurred pixel fails (Student t, dof)
+    failing_pixels: int
+    max_abs_z: float
+    z_sd: float                #: sd of the blurred z over all tests (<= about 1 under H0)
+    z_map: np.ndarray          #: (H, W) largest |z| over the channels
+    passed_map: np.ndarray     #: bool (H, W)
+
+
+def blur_test(ours: np.ndarray, again: np.ndarray, ref: np.ndarray, tol: float | np.ndarray,
+              exposure_slope: np.ndarray | None = None, var_log_exposure: float = 0.0,
+              alpha: float = ALPHA, sigma: float = BLUR_SIGMA) -> BlurTest:
+    """Whether ``ref`` differs from our side anywhere by more than noise.
+
+    ``ours`` and ``again``: our side with two seeds, ``ref`` the reference, (H, W, 3) at the
+    same sample count. The difference d = (ours + again)/2 - ref and the floor f = ours -
+    again, both blurred with a Gaussian g of sd ``sigma`` (zeros outside the image, weights
+    renormalised). With each pixel's noise variance s^2 the same on all three images (the
+    reference made at our sample count), var d = 1.5 s^2 and E f^2 = 2 s^2, so the variance
+    of the blurred d at p is estimated without bias by 0.75 sum_q g(p - q)^2 f(q)^2 (the
+    squared kernel): local, with 2 pi sigma^2 degrees of freedom (Satterthwaite). An
+    ``exposure_slope`` (dI/dlnE per pixel) adds the exposure's spread, which is the same
+    for every pixel of an image: (g * slope)^2 1.5 ``var_log_exposure``. A pixel fails when
+    |blurred d| exceeds ``tol`` (quantisation, float error) and its t exceeds the Student-t
+    critical value at ``alpha`` Sidak-corrected over every pixel and channel (conservative:
+    the blurred tests are correlated)."""
+    from scipy.stats import t as student_t
+    a, b, r = (np.asarray(x, dtype=np.float64) for x in (ours, again, ref))
+    if not (a.shape == b.shape == r.shape) or a.ndim != 3:
+        raise ValueError(f"blur_test needs three (H, W, C) images of one shape, got "
+                         f"{a.shape}, {b.shape}, {r.shape}")
+    k = _kernel(sigma)
+    norm = _separable(np.ones(a.shape[:2] + (1,)), k)
+    d = _separable((a + b) / 2.0 - r, k) / norm
+    var = 0.75 * _separable(np.square(a - b), k * k) / np.square(norm)
+    if exposure_slope is not None and var_log_exposure > 0:
+        var = var + np.square(_separable(np.asarray(exposure_slope, np.float64), k) / norm) \
+            * 1.5 * var_log_exposure
+    excess = np.maximum(np.abs(d) - tol, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(excess > 0, excess / np.sqrt(var), 0.0)
+    z = np.where(np.isnan(z), np.inf, z)
+    tests = a.size
+    level = float(sidak_alpha(alpha, tests))
+    dof = 2.0 * math.pi * sigma * sigma
+    crit = float(student_t.isf(level / 2.0, dof))
+    ok = z <= crit
+    passed_map = ok.all(axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        signed = np.where(var > 0, d / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)
+    return BlurTest(bool(ok.all()), sigma, tests, level, dof, crit, int((~passed_map).sum()),
+                    float(z.max()) if z.size else 0.0,
+                    float(signed[var > 0].std()) if (var > 0).any() else 0.0,
+                    z.max(axis=2), passed_map)
+
+
+@dataclass
+class MeanTest:
+    """The mean difference of the whole image, per channel (:func:`mean_test`)."""
+    passed: bool
+    mean_diff: list[float]     #: per channel, ours - ref
+    se: list[float]            #: its standard error under H0
+    z: list[float]
+    p: list[float]             #: two-sided
+    alpha: float               #: per-channel level (Sidak over the channels)
+
+
+def mean_test(ours: np.ndarray, again: np.ndarray, ref: np.ndarray, tol: float,
+              exposure_slope: np.ndarray | None = None, var_log_exposure: float = 0.0,
+              alpha: float = ALPHA) -> MeanTest:
+    """Two-sided z-test of the mean of d = (ours + again)/2 - ref per channel, its variance
+    0.75 sum f^2 / n^2 from the floor f = ours - again (pixels independent; see
+    :func:`blur_test`) plus the exposure's 1.5 ``var_log_exposure`` mean(slope)^2; a mean
+    within ``tol`` passes. Sidak over the channels."""
+    from scipy.special import ndtr
+    a, b, r = (np.asarray(x, dtype=np.float64) for x in (ours, again, ref))
+    c = a.shape[-1]
+    d = ((a + b) / 2.0 - r).reshape(-1, c)
+    f = (a - b).reshape(-1, c)
+    n = d.shape[0]
+    m = d.mean(axis=0)
+    var = 0.75 * np.square(f).sum(axis=0) / n ** 2
+    if exposure_slope is not None and var_log_exposure > 0:
+        var = var + np.square(np.asarray(exposure_slope, np.float64).reshape(-1, c)
+                              .mean(axis=0)) * 1.5 * var_log_exposure
+    excess = np.maximum(np.abs(m) - tol, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(excess > 0, excess / np.sqrt(var), 0.0)
+    z = np.where(np.isnan(z), np.inf, z)
+    p = 2.0 * ndtr(-z)
+    level = float(sidak_alpha(alpha, c))
+    se = np.sqrt(var)
+    return MeanTest(bool((p >= level).all()), [float(x) for x in m], [float(x) for x in se],
+                    [float(x) for x in np.sign(m) * z], [float(x) for x in p], level)
