@@ -480,7 +480,7 @@ def format_table(records: list[dict]) -> str:
 
 def _reference_table(records: list[dict]) -> str:
     head = ("scene", "reference", "page", "pixels", "spp", "exposure", "method", "identical",
-            "within 1", "max|t|", "t crit", "mean z", "FLIP", "FLIP noise", "mitsuba s",
+            "within 1/tol", "max|t|", "t crit", "mean z", "FLIP", "FLIP noise", "mitsuba s",
             "verdict")
     rows = []
     for r in records:
@@ -489,7 +489,8 @@ def _reference_table(records: list[dict]) -> str:
         rows.append((r["label"], Path(r["reference"]).name, str(r["page"]), str(r["pixels"]),
                      str(r["spp"]), "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      r["method"], "-" if b is None else f"{b['identical']:.5f}",
-                     "-" if b is None else f"{b['within_one']:.5f}",
+                     f"{b['within_one']:.5f}" if b else
+                     f"{r['float_test']['pass_rate']:.5f}" if r["float_test"] else "-",
                      "-" if bt is None else _num(bt["max_abs_z"], ".3g"),
                      "-" if bt is None else f"{bt['z_critical']:.3g}",
                      "-" if worst is None else _num(worst, ".3g"),
