@@ -13,7 +13,13 @@ mean FLIP <= 0.01 and the exposure test by default), 1 when one fails, 2 on bad 
 SCENE is a tutorial scene file (.txt: converted with the full model into
 OUT/SCENE.mitsuba.xml) or a converted
 Mitsuba XML (.xml: rendered as it is, against the scene file its converter header names, or
-the .txt of the same name next to it)."""
+the .txt of the same name next to it).
+
+--reference IMAGE compares the Mitsuba side with a render made elsewhere instead of the port:
+a .tga/.png on the displayed bytes, an .exr on the linear film; exactly for scenes without
+randomness (bytes within one level, or the float tolerance, on >= the pass rate), else a
+Gaussian-blurred difference and a mean difference against the noise floor of our side with
+two seeds (see docs/harness.md)."""
 
 from __future__ import annotations
 
