@@ -238,3 +238,32 @@ def test_byte_agreement_counts():
     ba = byte_agreement(a, b)
     assert ba.identical == 10 / 12 and ba.within_one == 11 / 12 and ba.max_diff == 3
     assert ba.diff_map.tolist() == [[1, 0], [0, 3]]
+
+
+def test_stouffer_tiles_calibrated_and_catch_a_small_widespread_bias():
+    """Pure N(0, 1) z: the tiles' Stouffer Z has sd about 1 and nothing fails; a bias of
+    0.5 sd over one 16 x 16 tile (no single z near the per-sub-sample critical 5.5) gives
+    Z about 0.5 x 16 = 8 there: that tile fails, in all three channels."""
+    from codermind_harness.metrics import stouffer, tile_labels
+    rng = np.random.default_rng(3)
+    z = rng.normal(size=(128, 160, 3))
+    lab = tile_labels(z.shape[:2])
+    p = stouffer(z, lab, "tiles")
+    assert p.passed and p.tests == 8 * 10 * 3 and 0.85 < p.z_sd < 1.15
+    z[32:48, 64:80] += 0.5
+    p = stouffer(z, lab, "tiles")
+    assert not p.passed and {f[0] for f in p.failing} == {2 * 10 + 4}
+    assert {f[1] for f in p.failing} == set("RGB") and all(f[3] == 256 for f in p.failing)
+
+
+def test_stouffer_clips_a_lone_outlier_and_skips_noiseless_channels():
+    from codermind_harness.metrics import signed_z, stouffer
+    rng = np.random.default_rng(4)
+    z = rng.normal(size=(16, 16, 3))
+    z[3, 3, 0] = 200.0                      # alone: 200 / 16 = 12.5 unclipped
+    assert stouffer(z, np.zeros((16, 16), int), "objects").passed
+    # channels within the float tolerance are NaN in signed_z and not pooled
+    a = np.ones((4, 4, 3))
+    s = signed_z(a, np.zeros_like(a), a + 1e-5, np.zeros_like(a))
+    assert np.isnan(s).all()
+    assert stouffer(s, np.zeros((4, 4), int), "objects").tests == 0

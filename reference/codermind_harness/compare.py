@@ -46,6 +46,7 @@ class Thresholds:
     rtol: float = metrics.RTOL
     atol: float = metrics.ATOL
     exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
+    pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
 
 
 @dataclass
@@ -196,6 +197,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                                       th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
                        th.rtol, th.atol)
+    pooled = pooled_tests(mits, port, xml, grid, defines, random, th) if random else None
     rows = strip_free_rows(grid, scene.page)
     flip_mean, flip_map = metrics.flip(port.encoded[rows], mits.encoded[rows])
     rel = metrics.rel_mse(mits.linear, port.linear)
@@ -219,6 +221,13 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
     if etest is not None and not etest.passed:
         failures.append(exposure_failure(etest))
+    for kind, p in (pooled or {}).items():
+        if not p["passed"]:
+            g, c, zz, n = p["failing"][0]
+            failures.append(f"pooled z over {kind}: {len(p['failing'])}"
+                            f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
+                            f"{p['z_critical']:.3g} (worst: {g} {c}, Stouffer Z {zz:.3g} over "
+                            f"{n} sub-samples)")
     heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
                   f"{label}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
@@ -238,6 +247,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
+        "pooled": pooled,
         "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
         "rel_mse": rel,
         "rel_mse_noise": rel_noise,
@@ -245,7 +255,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
             "seeds": seeds, "mitsuba": mits.probe_exposures, "port": port_es,
             **asdict(etest)},
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
-                       "exposure_alpha": th.exposure_alpha},
+                       "exposure_alpha": th.exposure_alpha, "pooled_alpha": th.pooled_alpha},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
                     "mitsuba_load": mits.load_seconds,
@@ -399,6 +409,22 @@ def _statistical(record: dict, failures: list, a, b, r, tol, slope, var_log_e,
     return "statistical", _Map(bt.z_map, bt.passed_map, bt.z_critical)
 
 
+def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
+                 th: Thresholds) -> dict:
+    """Stouffer's Z of the signed per-sub-sample z over tiles of 16 x 16 sub-samples and over
+    each object's sub-samples (the shape Mitsuba's lens-centre ray sees first; the sky is one
+    group), each family at ``Thresholds.pooled_alpha`` Sidak-corrected (metrics.stouffer)."""
+    zs = metrics.signed_z(mits.linear, mits.variance, port.linear, port.variance,
+                          th.rtol, th.atol)
+    out = {"tiles": metrics.stouffer(zs, metrics.tile_labels(zs.shape[:2]), "tiles",
+                                     th.pooled_alpha)}
+    labels_, names = sides.object_labels(xml, grid, defines)
+    labels_ = np.where(labels_ < 0, len(names), labels_)
+    out["objects"] = metrics.stouffer(zs, labels_, "objects", th.pooled_alpha,
+                                      names=names + ["sky"])
+    return {k: asdict(v) for k, v in out.items()}
+
+
 def exposure_failure(e: metrics.ExposureTest) -> str:
     where = (f"Welch t = {e.t:.2f} (df {e.df:.1f}), p = {e.p:.2g} < {e.alpha}"
              if e.method == "welch" else "outside the float tolerance (neither side varies)")
@@ -501,8 +527,8 @@ def _reference_table(records: list[dict]) -> str:
 
 def _port_table(records: list[dict]) -> str:
     head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
-            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "E test", "port s", "mitsuba s",
-            "verdict")
+            "z sd", "pooled", "FLIP", "FLIP noise", "relMSE", "noise", "E test", "port s",
+            "mitsuba s", "verdict")
     rows = []
     for r in records:
         z = r["z_test"]
@@ -510,7 +536,8 @@ def _port_table(records: list[dict]) -> str:
         rows.append((r["label"], str(r["page"]), str(r["pixels"]), str(r["spp"]),
                      "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
-                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
+                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), _pooled(r),
+                     f"{r['flip_mean']:.5f}",
                      _num(r["flip_noise"], ".5f"), f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
                      "-" if e is None else "pass" if e["passed"] else "FAIL",
                      f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
@@ -532,6 +559,15 @@ def _port_table(records: list[dict]) -> str:
         text += (f"\n\nexposure test: each side's auto exposure over {len(e0['seeds'])} seeds, "
                  f"Welch's t-test, alpha {e0['alpha']:g} (two-sided)\n" + _fixed(head, rows))
     return text
+
+
+def _pooled(r: dict) -> str:
+    """The pooled tests' verdict and largest |Z| (tiles / objects)."""
+    p = r.get("pooled")
+    if not p:
+        return "-"
+    cell = "/".join(_num(v["max_abs_z"], ".2g") for v in p.values())
+    return cell + ("" if all(v["passed"] for v in p.values()) else " FAIL")
 
 
 def _fixed(head, rows) -> str:

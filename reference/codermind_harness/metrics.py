@@ -350,3 +350,75 @@ def mean_test(ours: np.ndarray, again: np.ndarray, ref: np.ndarray, tol: float,
     se = np.sqrt(var)
     return MeanTest(bool((p >= level).all()), [float(x) for x in m], [float(x) for x in se],
                     [float(x) for x in np.sign(m) * z], [float(x) for x in p], level)
+
+
+# -- pooled tests of the per-sub-sample z ------------------------------------------------------
+
+#: Level of each pooled family (tiles, objects), two-sided, before the Sidak correction.
+POOLED_ALPHA = 5e-3
+#: Each signed z is clipped to +-Z_CLIP before pooling: a lone outlier (which the
+#: per-sub-sample test already judges) must not fail a pool of a few hundred.
+Z_CLIP = 4.0
+#: Tile side in sub-samples.
+TILE = 16
+
+
+def signed_z(mean_a, var_a, mean_b, var_b, rtol: float = RTOL, atol: float = ATOL):
+    """(H, W, 3) signed z = (a - b) / sqrt(var_a + var_b) where the noise sd exceeds the float
+    tolerance, NaN elsewhere (those channels carry no noise to pool)."""
+    a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
+    sd = np.sqrt(np.asarray(var_a, np.float64) + np.asarray(var_b, np.float64))
+    noisy = sd > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(noisy, (a - b) / np.where(noisy, sd, 1.0), np.nan)
+
+
+@dataclass
+class PooledTest:
+    """Stouffer's Z over groups of sub-samples, per channel (:func:`stouffer`)."""
+    passed: bool
+    kind: str                  #: "tiles" or "objects"
+    groups: int                #: groups with noisy channels
+    tests: int                 #: groups x channels tested
+    alpha: float               #: per-test level after the Sidak correction
+    z_critical: float
+    max_abs_z: float | None
+    z_sd: float | None         #: sd of the pooled Z (about 1 under H0)
+    failing: list              #: [(group, channel, Z, n)] of the failing tests, worst first
+
+
+def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED_ALPHA,
+             clip: float = Z_CLIP, min_count: int = 16, names=None) -> PooledTest:
+    """Stouffer's Z = sum clip(z_i) / sqrt(n) over the noisy channels of each group (``labels``:
+    int (H, W), one group per value, negative: none) and channel, two-sided, Sidak-corrected
+    over every group and channel with at least ``min_count`` noisy values."""
+    from scipy.special import ndtri
+    z = np.asarray(z, dtype=np.float64)
+    lab = np.asarray(labels)
+    zc = np.clip(z, -clip, clip)
+    out, where = [], []
+    for g in np.unique(lab[lab >= 0]):
+        sel = zc[lab == g]                       # (n, 3)
+        for c in range(sel.shape[1]):
+            v = sel[:, c]
+            v = v[np.isfinite(v)]
+            if v.size >= min_count:
+                out.append(float(v.sum() / math.sqrt(v.size)))
+                where.append((g, c, v.size))
+    tests = len(out)
+    level = float(sidak_alpha(alpha, tests))
+    crit = float(-ndtri(level / 2.0))
+    zs = np.array(out)
+    bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
+           for (g, c, n), x in zip(where, out) if abs(x) > crit]
+    bad.sort(key=lambda t: -abs(t[2]))
+    return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
+                      float(np.abs(zs).max()) if tests else None,
+                      float(zs.std()) if tests > 1 else None, bad[:10])
+
+
+def tile_labels(shape: tuple[int, int], tile: int = TILE) -> np.ndarray:
+    """(H, W) tile index of each sub-sample, tiles of ``tile`` x ``tile``."""
+    h, w = shape
+    ty, tx = np.arange(h)[:, None] // tile, np.arange(w)[None, :] // tile
+    return (ty * (-(-w // tile)) + tx).astype(np.int64)
