@@ -267,3 +267,10 @@ def test_stouffer_clips_a_lone_outlier_and_skips_noiseless_channels():
     s = signed_z(a, np.zeros_like(a), a + 1e-5, np.zeros_like(a))
     assert np.isnan(s).all()
     assert stouffer(s, np.zeros((4, 4), int), "objects").tests == 0
+
+
+def test_flip_limit_formula():
+    from codermind_harness.metrics import flip_limit
+    assert flip_limit(0.0, 100) == pytest.approx(1e-3)
+    assert flip_limit(0.02, 10_000) == pytest.approx(0.02 * (1.15 + 0.1) + 1e-3)
+    assert flip_limit(0.02, 10_000, k=0.0, k0=0.0, eps=0.0) == pytest.approx(0.02)

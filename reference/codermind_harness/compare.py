@@ -41,12 +41,16 @@ from .sides import Grid, HarnessError
 @dataclass
 class Thresholds:
     pass_rate: float = 0.99       #: smallest share of sub-samples passing the z-test
-    flip: float = 0.01            #: largest mean FLIP
+    flip: float = 0.01            #: largest mean FLIP of a scene without randomness
     alpha: float = metrics.ALPHA
     rtol: float = metrics.RTOL
     atol: float = metrics.ATOL
     exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
     pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
+    #: random scenes: FLIP <= floor (1 + k0 + k / sqrt(pixels)) + eps (metrics.flip_limit)
+    flip_k: float = metrics.FLIP_K
+    flip_k0: float = metrics.FLIP_K0
+    flip_eps: float = metrics.FLIP_EPS
 
 
 @dataclass
@@ -204,7 +208,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     rel_noise = float(np.mean((mits.variance + port.variance)
                               / (np.square(port.linear) + metrics.REL_MSE_EPS)))
     flip_noise = noise_z = None
-    if opt.noise_floor:
+    if opt.noise_floor or random:
         log(f"{txt.name}: the port again with seed {opt.seed + 1} (noise floor)")
         again = sides.render_port(scene, grid, spp, opt.seed + 1, exposure, opt.port_mode,
                                   random, opt.workers, opt.progress)
@@ -217,8 +221,12 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     failures = []
     if z.pass_rate < th.pass_rate:
         failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
-    if flip_mean > th.flip:
-        failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+    flip_limit = th.flip if not random else metrics.flip_limit(
+        flip_noise, grid.pixels, th.flip_k, th.flip_eps, th.flip_k0)
+    if flip_mean > flip_limit:
+        failures.append(f"mean FLIP {flip_mean:.5f} > {flip_limit:.5f}" + (
+            "" if not random else f" (its noise floor {flip_noise:.5f} x (1 + {th.flip_k0:g} "
+            f"+ {th.flip_k:g} / sqrt({grid.pixels} pixels)) + {th.flip_eps:g})"))
     if etest is not None and not etest.passed:
         failures.append(exposure_failure(etest))
     for kind, p in (pooled or {}).items():
@@ -247,7 +255,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
-        "pooled": pooled,
+        "pooled": pooled, "flip_limit": flip_limit,
         "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
         "rel_mse": rel,
         "rel_mse_noise": rel_noise,
@@ -255,7 +263,9 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
             "seeds": seeds, "mitsuba": mits.probe_exposures, "port": port_es,
             **asdict(etest)},
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
-                       "exposure_alpha": th.exposure_alpha, "pooled_alpha": th.pooled_alpha},
+                       "exposure_alpha": th.exposure_alpha, "pooled_alpha": th.pooled_alpha,
+                       "flip_k": th.flip_k, "flip_k0": th.flip_k0,
+                       "flip_eps": th.flip_eps},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
                     "mitsuba_load": mits.load_seconds,

@@ -53,6 +53,25 @@ REL_MSE_EPS = 1e-2
 EXPOSURE_ALPHA = 1e-3
 
 
+#: FLIP of a random scene is judged against its noise floor F0 (the port against itself with
+#: the next seed, same settings): F <= F0 (1 + FLIP_K0 + FLIP_K / sqrt(pixels)) + FLIP_EPS.
+#: FLIP_K: 5 sds of F / F0 between seeds, which fall as 1 / sqrt(pixels) (measured 1.8 /
+#: sqrt(pixels)); FLIP_K0: the two sides' noise may differ (other samplers), which moved
+#: F / F0 by up to +8 % on whole frames; FLIP_EPS: noise-free grids (docs/results/compare.md).
+FLIP_K0 = 0.15
+FLIP_K = 10.0
+FLIP_EPS = 1e-3
+
+
+def flip_limit(floor: float, pixels: int, k: float | None = None, eps: float | None = None,
+               k0: float | None = None) -> float:
+    """The largest FLIP of a random scene whose noise floor is ``floor`` (see FLIP_K)."""
+    k = FLIP_K if k is None else k
+    k0 = FLIP_K0 if k0 is None else k0
+    eps = FLIP_EPS if eps is None else eps
+    return float(floor) * (1.0 + k0 + k / math.sqrt(max(pixels, 1))) + eps
+
+
 class FlipInputError(ValueError):
     """An image that FLIP must not be given (it would exit the process or mislead)."""
 
