@@ -50,6 +50,14 @@ def test_page4_crop_compare_passes(tmp_path):
     assert z["pass_rate"] >= 0.99 and rec["flip_mean"] <= 0.01
     # the noise is real and the variances right: z spread about 1 over thousands of tests
     assert z["noisy_tests"] > 1000 and 0.9 < z["z_sd"] < 1.1
+    # the pooled tests: Stouffer's Z over 29 tiles and over the objects the crop sees
+    tiles, objects = rec["pooled"]["tiles"], rec["pooled"]["objects"]
+    assert tiles["passed"] and objects["passed"] and tiles["groups"] == 29
+    assert 0.7 < tiles["z_sd"] < 1.3 and objects["groups"] >= 1
+    # FLIP against its noise floor (the port with seed 1, rendered for every random scene)
+    assert rec["flip_noise"] > 0 and rec["flip_mean"] <= rec["flip_limit"]
+    assert rec["flip_limit"] == pytest.approx(
+        rec["flip_noise"] * (1.15 + 10 / np.sqrt(48 * 40)) + 1e-3)
     # each side's own auto exposure, 8 seeds each, agrees (Welch's t); the image used the
     # port's exposure for seed 0, the first of them
     e = rec["exposure_test"]

@@ -181,3 +181,96 @@ def test_exposure_test_without_noise_uses_the_float_tolerance():
         metrics.exposure_test([1.0], [1.0, 1.0])
     with pytest.raises(ValueError, match="non-finite"):
         metrics.exposure_test([1.0, np.nan], [1.0, 1.0])
+
+
+# -- the reference-image tests (compare --reference) ------------------------------------------
+
+def _noisy(rng, shape, sd):
+    base = np.linspace(0.2, 0.8, shape[0] * shape[1] * 3).reshape(shape)
+    return [base + rng.normal(0.0, sd, shape) for _ in range(3)], base
+
+
+def test_blur_test_is_calibrated_on_pure_noise_and_catches_a_local_bias():
+    """Three images with the same Gaussian noise: the blurred t has sd about 1 (the variance
+    estimate from the floor is unbiased) and nothing fails; a bias of 5 noise sd over a
+    20 x 20 patch of the reference fails there and only there (analytic: the blur's sd is
+    sd sqrt(1.5) / (2 sqrt(pi) sigma), so the patch's t is about 5 / 0.26 = 19)."""
+    from codermind_harness.metrics import blur_test
+    rng = np.random.default_rng(1)
+    (a, b, r), _ = _noisy(rng, (96, 128, 3), 0.05)
+    t = blur_test(a, b, r, 0.0)
+    assert t.passed and t.failing_pixels == 0 and 0.85 < t.z_sd < 1.15
+    assert t.dof == pytest.approx(2 * np.pi * 9) and t.z_critical > 5
+    r2 = r.copy()
+    r2[40:60, 50:70] += 0.25 * 0.05 * 20        # 0.25: five sd of 0.05
+    t2 = blur_test(a, b, r2, 0.0)
+    ys, xs = np.nonzero(~t2.passed_map)
+    assert not t2.passed and 30 <= ys.min() and ys.max() < 70 and 40 <= xs.min() and xs.max() < 80
+
+
+def test_blur_test_tolerance_and_exposure_spread():
+    from codermind_harness.metrics import blur_test
+    zero = np.zeros((16, 16, 3))
+    assert blur_test(zero, zero, zero + 0.001, 0.002).passed        # within the tolerance
+    assert not blur_test(zero, zero, zero + 0.01, 0.002).passed     # no noise: any excess fails
+    # a shift the exposure's spread explains: slope 1 per unit ln E, sd ln E 0.01, shift 0.02
+    assert blur_test(zero, zero, zero - 0.02, 0.0, np.ones_like(zero), 1e-4).passed
+    assert not blur_test(zero, zero, zero - 0.2, 0.0, np.ones_like(zero), 1e-4).passed
+
+
+def test_mean_test_se_matches_the_analytic_value():
+    """se of the mean of d = (a + b)/2 - r over n pixels: sd sqrt(1.5 / n)."""
+    from codermind_harness.metrics import mean_test
+    rng = np.random.default_rng(2)
+    (a, b, r), _ = _noisy(rng, (64, 64, 3), 0.1)
+    m = mean_test(a, b, r, 0.0)
+    assert m.passed
+    assert m.se == pytest.approx([0.1 * np.sqrt(1.5 / 4096)] * 3, rel=0.05)
+    shifted = mean_test(a, b, r - 0.01, 0.0)             # 0.01 = 5.2 se
+    assert not shifted.passed and min(shifted.z) > 4
+
+
+def test_byte_agreement_counts():
+    from codermind_harness.metrics import byte_agreement
+    a = np.zeros((2, 2, 3), np.uint8)
+    b = a.copy()
+    b[0, 0, 0], b[1, 1, 2] = 1, 3
+    ba = byte_agreement(a, b)
+    assert ba.identical == 10 / 12 and ba.within_one == 11 / 12 and ba.max_diff == 3
+    assert ba.diff_map.tolist() == [[1, 0], [0, 3]]
+
+
+def test_stouffer_tiles_calibrated_and_catch_a_small_widespread_bias():
+    """Pure N(0, 1) z: the tiles' Stouffer Z has sd about 1 and nothing fails; a bias of
+    0.5 sd over one 16 x 16 tile (no single z near the per-sub-sample critical 5.5) gives
+    Z about 0.5 x 16 = 8 there: that tile fails, in all three channels."""
+    from codermind_harness.metrics import stouffer, tile_labels
+    rng = np.random.default_rng(3)
+    z = rng.normal(size=(128, 160, 3))
+    lab = tile_labels(z.shape[:2])
+    p = stouffer(z, lab, "tiles")
+    assert p.passed and p.tests == 8 * 10 * 3 and 0.85 < p.z_sd < 1.15
+    z[32:48, 64:80] += 0.5
+    p = stouffer(z, lab, "tiles")
+    assert not p.passed and {f[0] for f in p.failing} == {2 * 10 + 4}
+    assert {f[1] for f in p.failing} == set("RGB") and all(f[3] == 256 for f in p.failing)
+
+
+def test_stouffer_clips_a_lone_outlier_and_skips_noiseless_channels():
+    from codermind_harness.metrics import signed_z, stouffer
+    rng = np.random.default_rng(4)
+    z = rng.normal(size=(16, 16, 3))
+    z[3, 3, 0] = 200.0                      # alone: 200 / 16 = 12.5 unclipped
+    assert stouffer(z, np.zeros((16, 16), int), "objects").passed
+    # channels within the float tolerance are NaN in signed_z and not pooled
+    a = np.ones((4, 4, 3))
+    s = signed_z(a, np.zeros_like(a), a + 1e-5, np.zeros_like(a))
+    assert np.isnan(s).all()
+    assert stouffer(s, np.zeros((4, 4), int), "objects").tests == 0
+
+
+def test_flip_limit_formula():
+    from codermind_harness.metrics import flip_limit
+    assert flip_limit(0.0, 100) == pytest.approx(1e-3)
+    assert flip_limit(0.02, 10_000) == pytest.approx(0.02 * (1.15 + 0.1) + 1e-3)
+    assert flip_limit(0.02, 10_000, k=0.0, k0=0.0, eps=0.0) == pytest.approx(0.02)

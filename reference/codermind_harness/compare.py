@@ -41,11 +41,16 @@ from .sides import Grid, HarnessError
 @dataclass
 class Thresholds:
     pass_rate: float = 0.99       #: smallest share of sub-samples passing the z-test
-    flip: float = 0.01            #: largest mean FLIP
+    flip: float = 0.01            #: largest mean FLIP of a scene without randomness
     alpha: float = metrics.ALPHA
     rtol: float = metrics.RTOL
     atol: float = metrics.ATOL
     exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
+    pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
+    #: random scenes: FLIP <= floor (1 + k0 + k / sqrt(pixels)) + eps (metrics.flip_limit)
+    flip_k: float = metrics.FLIP_K
+    flip_k0: float = metrics.FLIP_K0
+    flip_eps: float = metrics.FLIP_EPS
 
 
 @dataclass
@@ -65,6 +70,7 @@ class Options:
     workers: int | None = None
     noise_floor: bool = False     #: also render the port with seed + 1 (FLIP of noise alone)
     exposure_seeds: int = 8       #: page 4: auto exposures per side for the exposure test
+    reference: Path | None = None  #: a reference image as the other side (refimage)
 
 
 def log(message: str) -> None:
@@ -99,6 +105,7 @@ class Case:
     grid: Grid
     random: bool
     spp: int
+    reference: object = None      #: refimage.Reference, or None: the port is the other side
 
 
 def prepare(path: str | os.PathLike, opt: Options) -> Case:
@@ -107,7 +114,8 @@ def prepare(path: str | os.PathLike, opt: Options) -> Case:
     txt, xml = sides.twin_of(path)
     scene = sides.parse(txt)
     random = sides.is_random(scene)
-    spp = opt.spp or sides.default_spp(scene)
+    spp = opt.spp or (sides.default_spp(scene) if opt.reference is None
+                      else reference_spp(scene, random))
     if spp < 1:
         raise HarnessError(f"--spp must be >= 1, got {spp}")
     if random and spp < 2:
@@ -120,21 +128,24 @@ def prepare(path: str | os.PathLike, opt: Options) -> Case:
                            f"spread), got {opt.exposure_seeds}")
     grid = Grid.of(scene.width, scene.height, scene.page, opt.rect, opt.stride)
     strip_free_rows(grid, scene.page)
-    return Case(Path(path), txt, xml, scene, grid, random, spp)
+    ref = None
+    if opt.reference is not None:
+        from . import refimage
+        ref = refimage.read(opt.reference, scene.width, scene.height, grid.sub)
+    return Case(Path(path), txt, xml, scene, grid, random, spp, ref)
 
 
-def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | None = None) -> dict:
-    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
-    ``label``: the stem of the files written for it (default: the scene file's stem)."""
-    case = path if isinstance(path, Case) else prepare(path, opt)
-    path, txt, xml, scene, grid = case.path, case.txt, case.xml, case.scene, case.grid
-    random, spp = case.random, case.spp
-    label = label or path.stem
-    if scene.page != 4 and spp != 1:
-        log(f"{txt.name}: page {scene.page} is deterministic; --spp {spp} changes nothing "
-            "(the port ignores it)")
-    out = Path(opt.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+def reference_spp(scene, random: bool) -> int:
+    """Default samples against a reference image: 1 without randomness, else the scene's
+    Complexity (what the tutorial's program renders with, at least 2): the statistical tests
+    assume the reference has our side's noise."""
+    return max(scene.complexity, 2) if random else 1
+
+
+def mitsuba_xml(case: Case, opt: Options, label: str, out: Path) -> tuple[Path, dict]:
+    """The Mitsuba side's XML (``case.xml``, or ``case.txt`` converted into ``out``) and the
+    XML defines the options ask for."""
+    txt, xml, scene = case.txt, case.xml, case.scene
     if xml is None:
         xml = sides.convert_xml(txt, scene, out, opt.blob_max_error, name=f"{label}.mitsuba.xml",
                                 quirks=opt.quirks)
@@ -149,7 +160,25 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         if opt.blob_max_error is not None:
             defines.update({f"blob{i}_max_error": str(opt.blob_max_error)
                             for i in range(len(scene.blobs))})
-    defines["spp"] = str(spp)
+    defines["spp"] = str(case.spp)
+    return xml, defines
+
+
+def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | None = None) -> dict:
+    """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
+    ``label``: the stem of the files written for it (default: the scene file's stem)."""
+    case = path if isinstance(path, Case) else prepare(path, opt)
+    path, txt, xml, scene, grid = case.path, case.txt, case.xml, case.scene, case.grid
+    random, spp = case.random, case.spp
+    label = label or path.stem
+    if scene.page != 4 and spp != 1:
+        log(f"{txt.name}: page {scene.page} is deterministic; --spp {spp} changes nothing "
+            "(the port ignores it)")
+    out = Path(opt.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if case.reference is not None:
+        return compare_reference(case, opt, label, out)
+    xml, defines = mitsuba_xml(case, opt, label, out)
     seeds = [opt.seed + k for k in range(opt.exposure_seeds)] if scene.page == 4 else []
     t0 = time.perf_counter()
     port_es = sides.port_exposures(scene, seeds, opt.port_mode)
@@ -172,13 +201,14 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                                       th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
                        th.rtol, th.atol)
+    pooled = pooled_tests(mits, port, xml, grid, defines, random, th) if random else None
     rows = strip_free_rows(grid, scene.page)
     flip_mean, flip_map = metrics.flip(port.encoded[rows], mits.encoded[rows])
     rel = metrics.rel_mse(mits.linear, port.linear)
     rel_noise = float(np.mean((mits.variance + port.variance)
                               / (np.square(port.linear) + metrics.REL_MSE_EPS)))
     flip_noise = noise_z = None
-    if opt.noise_floor:
+    if opt.noise_floor or random:
         log(f"{txt.name}: the port again with seed {opt.seed + 1} (noise floor)")
         again = sides.render_port(scene, grid, spp, opt.seed + 1, exposure, opt.port_mode,
                                   random, opt.workers, opt.progress)
@@ -191,10 +221,21 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     failures = []
     if z.pass_rate < th.pass_rate:
         failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
-    if flip_mean > th.flip:
-        failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+    flip_limit = th.flip if not random else metrics.flip_limit(
+        flip_noise, grid.pixels, th.flip_k, th.flip_eps, th.flip_k0)
+    if flip_mean > flip_limit:
+        failures.append(f"mean FLIP {flip_mean:.5f} > {flip_limit:.5f}" + (
+            "" if not random else f" (its noise floor {flip_noise:.5f} x (1 + {th.flip_k0:g} "
+            f"+ {th.flip_k:g} / sqrt({grid.pixels} pixels)) + {th.flip_eps:g})"))
     if etest is not None and not etest.passed:
         failures.append(exposure_failure(etest))
+    for kind, p in (pooled or {}).items():
+        if not p["passed"]:
+            g, c, zz, n = p["failing"][0]
+            failures.append(f"pooled z over {kind}: {len(p['failing'])}"
+                            f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
+                            f"{p['z_critical']:.3g} (worst: {g} {c}, Stouffer Z {zz:.3g} over "
+                            f"{n} sub-samples)")
     heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
                   f"{label}: pass rate {z.pass_rate:.4f}, FLIP {flip_mean:.4f}, "
@@ -214,6 +255,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
                    "rtol": th.rtol, "atol": th.atol},
+        "pooled": pooled, "flip_limit": flip_limit,
         "flip_mean": flip_mean, "flip_noise": flip_noise, "z_test_noise": noise_z,
         "rel_mse": rel,
         "rel_mse_noise": rel_noise,
@@ -221,7 +263,9 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
             "seeds": seeds, "mitsuba": mits.probe_exposures, "port": port_es,
             **asdict(etest)},
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
-                       "exposure_alpha": th.exposure_alpha},
+                       "exposure_alpha": th.exposure_alpha, "pooled_alpha": th.pooled_alpha,
+                       "flip_k": th.flip_k, "flip_k0": th.flip_k0,
+                       "flip_eps": th.flip_eps},
         "passed": not failures, "failures": failures,
         "seconds": {"port": port.seconds, "mitsuba": mits.seconds,
                     "mitsuba_load": mits.load_seconds,
@@ -229,6 +273,166 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
         "heatmap": str(heatmap),
     }
     return record
+
+
+def compare_reference(case: Case, opt: Options, label: str, out: Path) -> dict:
+    """One scene's Mitsuba side against a reference image (``--reference``; module
+    :mod:`codermind_harness.refimage`). Our side follows ``codermind render``'s exposure
+    rules (page 4: its own probe exposure for the seed, unless ``--exposure``; pages 2-3: 1).
+
+    * 8-bit reference, scene without randomness: its bytes against ours (the share identical
+      and the share within one level, which must reach the pass rate) and FLIP;
+    * linear (EXR) reference, scene without randomness: the float tolerance per sub-sample
+      (:func:`metrics.z_test` with no variance on either side);
+    * a random scene, either kind: our side again with seed + 1 is the noise floor; the
+      Gaussian-blurred difference (:func:`metrics.blur_test`) and the mean difference
+      (:func:`metrics.mean_test`) against it, both with the spread of the auto exposure
+      (page 4) over ``exposure_seeds`` seeds of our side; FLIP and its floor reported."""
+    from codermind.tutorial.image import to_bytes
+    from codermind.tutorial.render import read_settings
+    path, txt, scene, grid, ref = case.path, case.txt, case.scene, case.grid, case.reference
+    random, spp, th = case.random, case.spp, opt.thresholds
+    xml, defines = mitsuba_xml(case, opt, label, out)
+    settings = read_settings(xml)
+    if settings is None:
+        raise HarnessError(f"{xml}: not a converted tutorial scene (no codermind-tutorial block)")
+    page4_auto = scene.page == 4 and opt.exposure is None
+    eseeds = [opt.seed + k for k in range(max(opt.exposure_seeds, 2))] if page4_auto else []
+    log(f"{txt.name}: page {scene.page}, {grid.pixels} pixels, {spp} spp, seed {opt.seed}, "
+        f"against {ref.path.name} ({ref.kind})")
+    mits = sides.render_mitsuba(xml, grid, spp, opt.seed, None, defines, variance=False,
+                                progress=opt.progress, exposure_seeds=eseeds)
+    again = None
+    if random:
+        log(f"{txt.name}: our side again with seed {opt.seed + 1} (noise floor)")
+        again = sides.render_mitsuba(xml, grid, spp, opt.seed + 1, None, defines,
+                                     variance=False, progress=opt.progress)
+    if page4_auto:
+        exposures = [float(e) for e in mits.probe_exposures]
+    else:
+        e = opt.exposure if opt.exposure is not None else (None if scene.page == 1 else 1.0)
+        exposures = [e, e]
+    enc = [sides.encode_mitsuba(s.linear, settings, e)
+           for s, e in zip([mits] + ([again] if again else []), exposures)]
+    var_log_e = float(np.var(np.log(exposures), ddof=1)) if page4_auto else 0.0
+    rows = strip_free_rows(grid, scene.page)
+    record = {"scene": str(path), "label": label, "tutorial_scene": str(txt), "xml": str(xml),
+              "page": scene.page, "width": scene.width, "height": scene.height,
+              "rect": list(grid.rect), "stride": grid.stride, "pixels": grid.pixels,
+              "spp": spp, "seed": opt.seed, "random": random, "quirks": opt.quirks,
+              "defines": defines, "reference": str(ref.path), "reference_kind": ref.kind,
+              "exposure": exposures[0], "exposure_again": exposures[1] if again else None,
+              "exposure_seeds": eseeds, "exposures": exposures if page4_auto else None,
+              "var_log_exposure": var_log_e,
+              "bytes": None, "float_test": None, "blur_test": None, "mean_test": None}
+    failures = []
+    if ref.kind == "8-bit":
+        ours = [to_bytes(x) for x in enc]
+        theirs = ref.grid_pixels(grid)
+        shown = theirs / 255.0
+        flip_mean, flip_map = metrics.flip(shown[rows], ours[0][rows] / 255.0)
+        flip_noise = (metrics.flip(ours[1][rows] / 255.0, ours[0][rows] / 255.0)[0]
+                      if again else None)
+        ba = metrics.byte_agreement(ours[0][rows], theirs[rows])
+        record["bytes"] = {"identical": ba.identical, "within_one": ba.within_one,
+                           "max_diff": ba.max_diff, "bytes": ba.bytes}
+        if not random:
+            method = "bytes"
+            zmap = _Map(ba.diff_map.astype(float), ba.diff_map <= 1, 1.0)
+            if ba.within_one < th.pass_rate:
+                failures.append(f"bytes within 1 level {ba.within_one:.5f} < {th.pass_rate}")
+            if flip_mean > th.flip:
+                failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+        else:
+            a, b, r = ours[0][rows] / 255.0, ours[1][rows] / 255.0, theirs[rows] / 255.0
+            slope = None
+            if page4_auto:
+                h = 1e-2
+                up, down = (to_bytes(sides.encode_mitsuba(mits.linear, settings,
+                                                          exposures[0] * math.exp(s)))
+                            for s in (h, -h))
+                slope = ((up.astype(float) - down) / (255.0 * 2 * h))[rows]
+            # half a level per blurred pixel (identical truncation on both sides, but regions
+            # without noise); a twentieth of a level for the mean of the whole grid
+            method, zmap = _statistical(record, failures, a, b, r, 0.5 / 255.0, slope,
+                                        var_log_e, th, mean_tol=0.05 / 255.0)
+    else:
+        theirs = ref.grid_film(grid)
+        e0 = exposures[0]
+        shown = sides.encode_mitsuba(theirs, settings, e0)
+        flip_mean, flip_map = metrics.flip(shown[rows], enc[0][rows])
+        flip_noise = (metrics.flip(sides.encode_mitsuba(again.linear, settings, e0)[rows],
+                                   enc[0][rows])[0] if again else None)
+        if not random:
+            method = "float tolerance"
+            zero = np.zeros_like(theirs)
+            z = metrics.z_test(mits.linear, zero, theirs, zero, th.alpha, th.rtol, th.atol)
+            record["float_test"] = {"pass_rate": z.pass_rate, "sub_samples": int(z.passed_map.size),
+                                    "failing_sub_samples": int((~z.passed_map).sum()),
+                                    "rtol": th.rtol, "atol": th.atol}
+            zmap = _Map(np.minimum(z.z_map, 2.0), z.passed_map, 1.0)
+            if z.pass_rate < th.pass_rate:
+                failures.append(f"sub-samples within the float tolerance {z.pass_rate:.5f} < "
+                                f"{th.pass_rate}")
+        else:
+            tol = th.rtol * np.abs(theirs) + th.atol
+            method, zmap = _statistical(record, failures, mits.linear, again.linear, theirs,
+                                        tol, None, 0.0, th)
+    heatmap = out / f"{label}.compare.png"
+    write_heatmap(heatmap, enc[0], shown, rows, flip_map, zmap, f"reference {ref.path.name}",
+                  f"{label} against {ref.path.name}: {method}, FLIP {flip_mean:.4f}",
+                  zlabel="|blurred t|" if random else "|difference|")
+    record.update({"method": method, "flip_mean": flip_mean, "flip_noise": flip_noise,
+                   "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
+                                  "alpha": th.alpha},
+                   "passed": not failures, "failures": failures,
+                   "seconds": {"mitsuba": mits.seconds + (again.seconds if again else 0.0),
+                               "mitsuba_load": mits.load_seconds,
+                               "mitsuba_probes": mits.probe_seconds},
+                   "heatmap": str(heatmap)})
+    return record
+
+
+@dataclass
+class _Map:
+    """What the heat map's last panel shows (as :class:`metrics.ZTest` gives it)."""
+    z_map: np.ndarray
+    passed_map: np.ndarray
+    z_critical: float
+
+
+def _statistical(record: dict, failures: list, a, b, r, tol, slope, var_log_e,
+                 th: Thresholds, mean_tol: float | None = None) -> tuple[str, _Map]:
+    bt = metrics.blur_test(a, b, r, tol, slope, var_log_e, th.alpha)
+    mean_tol = float(np.mean(tol)) if mean_tol is None else mean_tol
+    mt = metrics.mean_test(a, b, r, mean_tol, slope, var_log_e, th.alpha)
+    record["blur_test"] = {k: v for k, v in asdict(bt).items()
+                           if k not in ("z_map", "passed_map")}
+    record["mean_test"] = asdict(mt)
+    if not bt.passed:
+        failures.append(f"blurred difference: {bt.failing_pixels} pixels beyond the noise floor "
+                        f"(max |t| {bt.max_abs_z:.3g} > {bt.z_critical:.3g})")
+    if not mt.passed:
+        worst = int(np.argmin(mt.p))
+        failures.append(f"mean difference {mt.mean_diff[worst]:+.3g} (channel {'RGB'[worst]}), "
+                        f"z {mt.z[worst]:.3g}, p {mt.p[worst]:.2g} < {mt.alpha:.2g}")
+    return "statistical", _Map(bt.z_map, bt.passed_map, bt.z_critical)
+
+
+def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
+                 th: Thresholds) -> dict:
+    """Stouffer's Z of the signed per-sub-sample z over tiles of 16 x 16 sub-samples and over
+    each object's sub-samples (the shape Mitsuba's lens-centre ray sees first; the sky is one
+    group), each family at ``Thresholds.pooled_alpha`` Sidak-corrected (metrics.stouffer)."""
+    zs = metrics.signed_z(mits.linear, mits.variance, port.linear, port.variance,
+                          th.rtol, th.atol)
+    out = {"tiles": metrics.stouffer(zs, metrics.tile_labels(zs.shape[:2]), "tiles",
+                                     th.pooled_alpha)}
+    labels_, names = sides.object_labels(xml, grid, defines)
+    labels_ = np.where(labels_ < 0, len(names), labels_)
+    out["objects"] = metrics.stouffer(zs, labels_, "objects", th.pooled_alpha,
+                                      names=names + ["sky"])
+    return {k: asdict(v) for k, v in out.items()}
 
 
 def exposure_failure(e: metrics.ExposureTest) -> str:
@@ -251,7 +455,8 @@ def strip_free_rows(grid: Grid, page: int) -> slice:
 
 
 def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
-                  flip_map: np.ndarray, z: metrics.ZTest, port_label: str, title: str) -> None:
+                  flip_map: np.ndarray, z: metrics.ZTest, port_label: str, title: str,
+                  zlabel: str = "|z| per sub-sample") -> None:
     """One PNG: both images, the FLIP map and the |z| map (failing sub-samples in red)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -259,14 +464,14 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     from codermind.imageio import atomic_path
     with _PYPLOT:       # pyplot is not thread-safe (scenes compared in threads on a cluster)
         _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z,
-                 port_label, title)
+                 port_label, title, zlabel)
 
 
 _PYPLOT = threading.Lock()
 
 
 def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, port_label,
-             title) -> None:
+             title, zlabel="|z| per sub-sample") -> None:
     h, w = mits.shape[:2]
     panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
     fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
@@ -287,7 +492,7 @@ def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, 
     fails = np.ma.masked_where(z.passed_map, np.ones(z.passed_map.shape))
     axes[1, 1].imshow(fails, cmap=matplotlib.colors.ListedColormap(["red"]), vmin=0, vmax=1,
                       interpolation="nearest")
-    axes[1, 1].set_title(f"|z| per sub-sample (red: fails, z > {z.z_critical:.2f})",
+    axes[1, 1].set_title(f"{zlabel} (red: fails, > {z.z_critical:.3g})",
                          fontsize=9)
     fig.colorbar(im, ax=axes[1, 1], shrink=0.8)
     for ax in axes.ravel():
@@ -301,10 +506,39 @@ def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, 
 
 def format_table(records: list[dict]) -> str:
     """Fixed-width tables: the image tests, one row per scene (``E test``: the exposure
-    test's verdict), then the exposure test, one row per page-4 scene."""
-    head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
-            "z sd", "FLIP", "FLIP noise", "relMSE", "noise", "E test", "port s", "mitsuba s",
+    test's verdict), then the exposure test, one row per page-4 scene; scenes compared with a
+    reference image (``--reference``) in a table of their own."""
+    refs = [r for r in records if r.get("reference")]
+    records = [r for r in records if not r.get("reference")]
+    parts = ([_port_table(records)] if records else []) + ([_reference_table(refs)] if refs else [])
+    return "\n\n".join(parts)
+
+
+def _reference_table(records: list[dict]) -> str:
+    head = ("scene", "reference", "page", "pixels", "spp", "exposure", "method", "identical",
+            "within 1/tol", "max|t|", "t crit", "mean z", "FLIP", "FLIP noise", "mitsuba s",
             "verdict")
+    rows = []
+    for r in records:
+        b, bt, mt = r["bytes"], r["blur_test"], r["mean_test"]
+        worst = None if mt is None else max(mt["z"], key=abs)
+        rows.append((r["label"], Path(r["reference"]).name, str(r["page"]), str(r["pixels"]),
+                     str(r["spp"]), "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
+                     r["method"], "-" if b is None else f"{b['identical']:.5f}",
+                     f"{b['within_one']:.5f}" if b else
+                     f"{r['float_test']['pass_rate']:.5f}" if r["float_test"] else "-",
+                     "-" if bt is None else _num(bt["max_abs_z"], ".3g"),
+                     "-" if bt is None else f"{bt['z_critical']:.3g}",
+                     "-" if worst is None else _num(worst, ".3g"),
+                     f"{r['flip_mean']:.5f}", _num(r["flip_noise"], ".5f"),
+                     f"{r['seconds']['mitsuba']:.1f}", "pass" if r["passed"] else "FAIL"))
+    return _fixed(head, rows)
+
+
+def _port_table(records: list[dict]) -> str:
+    head = ("scene", "page", "pixels", "spp", "exposure", "pass rate", "fail", "max|z|",
+            "z sd", "pooled", "FLIP", "FLIP noise", "relMSE", "noise", "E test", "port s",
+            "mitsuba s", "verdict")
     rows = []
     for r in records:
         z = r["z_test"]
@@ -312,7 +546,8 @@ def format_table(records: list[dict]) -> str:
         rows.append((r["label"], str(r["page"]), str(r["pixels"]), str(r["spp"]),
                      "-" if r["exposure"] is None else f"{r['exposure']:.4g}",
                      f"{z['pass_rate']:.5f}", str(z["failing_sub_samples"]),
-                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), f"{r['flip_mean']:.5f}",
+                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), _pooled(r),
+                     f"{r['flip_mean']:.5f}",
                      _num(r["flip_noise"], ".5f"), f"{r['rel_mse']:.3g}", f"{r['rel_mse_noise']:.3g}",
                      "-" if e is None else "pass" if e["passed"] else "FAIL",
                      f"{r['seconds']['port']:.1f}", f"{r['seconds']['mitsuba']:.1f}",
@@ -334,6 +569,15 @@ def format_table(records: list[dict]) -> str:
         text += (f"\n\nexposure test: each side's auto exposure over {len(e0['seeds'])} seeds, "
                  f"Welch's t-test, alpha {e0['alpha']:g} (two-sided)\n" + _fixed(head, rows))
     return text
+
+
+def _pooled(r: dict) -> str:
+    """The pooled tests' verdict and largest |Z| (tiles / objects)."""
+    p = r.get("pooled")
+    if not p:
+        return "-"
+    cell = "/".join(_num(v["max_abs_z"], ".2g") for v in p.values())
+    return cell + ("" if all(v["passed"] for v in p.values()) else " FAIL")
 
 
 def _fixed(head, rows) -> str:

@@ -53,6 +53,25 @@ REL_MSE_EPS = 1e-2
 EXPOSURE_ALPHA = 1e-3
 
 
+#: FLIP of a random scene is judged against its noise floor F0 (the port against itself with
+#: the next seed, same settings): F <= F0 (1 + FLIP_K0 + FLIP_K / sqrt(pixels)) + FLIP_EPS.
+#: FLIP_K: 5 sds of F / F0 between seeds, which fall as 1 / sqrt(pixels) (measured 1.8 /
+#: sqrt(pixels)); FLIP_K0: the two sides' noise may differ (other samplers), which moved
+#: F / F0 by up to +8 % on whole frames; FLIP_EPS: noise-free grids (docs/results/compare.md).
+FLIP_K0 = 0.15
+FLIP_K = 10.0
+FLIP_EPS = 1e-3
+
+
+def flip_limit(floor: float, pixels: int, k: float | None = None, eps: float | None = None,
+               k0: float | None = None) -> float:
+    """The largest FLIP of a random scene whose noise floor is ``floor`` (see FLIP_K)."""
+    k = FLIP_K if k is None else k
+    k0 = FLIP_K0 if k0 is None else k0
+    eps = FLIP_EPS if eps is None else eps
+    return float(floor) * (1.0 + k0 + k / math.sqrt(max(pixels, 1))) + eps
+
+
 class FlipInputError(ValueError):
     """An image that FLIP must not be given (it would exit the process or mislead)."""
 
@@ -211,3 +230,214 @@ def exposure_test(a, b, alpha: float = EXPOSURE_ALPHA, rtol: float = RTOL,
     df = (va + vb) ** 2 / (va * va / (a.size - 1) + vb * vb / (b.size - 1))
     p = float(2.0 * student_t.sf(abs(t), df))
     return ExposureTest(p >= alpha, "welch", t=float(t), df=float(df), p=p, **common)
+
+
+# -- a reference image as the other side (``codermind compare --reference``) ----------------
+
+#: Standard deviation, in pixels, of the Gaussian that blurs a difference image.
+BLUR_SIGMA = 3.0
+
+
+@dataclass
+class ByteAgreement:
+    """Two 8-bit images compared exactly (:func:`byte_agreement`)."""
+    identical: float           #: share of bytes equal
+    within_one: float          #: share of bytes within 1 level
+    max_diff: int
+    bytes: int
+    diff_map: np.ndarray       #: int (H, W): largest |difference| over the channels
+
+
+def byte_agreement(a: np.ndarray, b: np.ndarray) -> ByteAgreement:
+    """Identical bytes and bytes within one level of two uint8 (H, W, 3) images."""
+    d = np.abs(np.asarray(a, dtype=np.int64) - np.asarray(b, dtype=np.int64))
+    return ByteAgreement(float((d == 0).mean()), float((d <= 1).mean()), int(d.max()),
+                         int(d.size), d.max(axis=2))
+
+
+def _kernel(sigma: float) -> np.ndarray:
+    r = max(1, int(math.ceil(3.0 * sigma)))
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    return k / k.sum()
+
+
+def _separable(image: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The 2-D correlation of each channel with k (x) k, zeros outside the image."""
+    from scipy.ndimage import correlate1d
+    out = correlate1d(image, k, axis=0, mode="constant", cval=0.0)
+    return correlate1d(out, k, axis=1, mode="constant", cval=0.0)
+
+
+@dataclass
+class BlurTest:
+    """The Gaussian-blurred difference against the noise floor (:func:`blur_test`)."""
+    passed: bool
+    sigma: float               #: the blur's sd, pixels
+    tests: int                 #: pixels x channels
+    alpha: float               #: per-test level after the Sidak correction
+    dof: float                 #: degrees of freedom of the local variance estimate
+    z_critical: float          #: |t| above which a blurred pixel fails (Student t, dof)
+    failing_pixels: int
+    max_abs_z: float
+    z_sd: float                #: sd of the blurred z over all tests (<= about 1 under H0)
+    z_map: np.ndarray          #: (H, W) largest |z| over the channels
+    passed_map: np.ndarray     #: bool (H, W)
+
+
+def blur_test(ours: np.ndarray, again: np.ndarray, ref: np.ndarray, tol: float | np.ndarray,
+              exposure_slope: np.ndarray | None = None, var_log_exposure: float = 0.0,
+              alpha: float = ALPHA, sigma: float = BLUR_SIGMA) -> BlurTest:
+    """Whether ``ref`` differs from our side anywhere by more than noise.
+
+    ``ours`` and ``again``: our side with two seeds, ``ref`` the reference, (H, W, 3) at the
+    same sample count. The difference d = (ours + again)/2 - ref and the floor f = ours -
+    again, both blurred with a Gaussian g of sd ``sigma`` (zeros outside the image, weights
+    renormalised). With each pixel's noise variance s^2 the same on all three images (the
+    reference made at our sample count), var d = 1.5 s^2 and E f^2 = 2 s^2, so the variance
+    of the blurred d at p is estimated without bias by 0.75 sum_q g(p - q)^2 f(q)^2 (the
+    squared kernel): local, with 2 pi sigma^2 degrees of freedom (Satterthwaite). An
+    ``exposure_slope`` (dI/dlnE per pixel) adds the exposure's spread, which is the same
+    for every pixel of an image: (g * slope)^2 1.5 ``var_log_exposure``. A pixel fails when
+    |blurred d| exceeds ``tol`` (quantisation, float error) and its t exceeds the Student-t
+    critical value at ``alpha`` Sidak-corrected over every pixel and channel (conservative:
+    the blurred tests are correlated)."""
+    from scipy.stats import t as student_t
+    a, b, r = (np.asarray(x, dtype=np.float64) for x in (ours, again, ref))
+    if not (a.shape == b.shape == r.shape) or a.ndim != 3:
+        raise ValueError(f"blur_test needs three (H, W, C) images of one shape, got "
+                         f"{a.shape}, {b.shape}, {r.shape}")
+    k = _kernel(sigma)
+    norm = _separable(np.ones(a.shape[:2] + (1,)), k)
+    d = _separable((a + b) / 2.0 - r, k) / norm
+    var = 0.75 * _separable(np.square(a - b), k * k) / np.square(norm)
+    if exposure_slope is not None and var_log_exposure > 0:
+        var = var + np.square(_separable(np.asarray(exposure_slope, np.float64), k) / norm) \
+            * 1.5 * var_log_exposure
+    excess = np.maximum(np.abs(d) - tol, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(excess > 0, excess / np.sqrt(var), 0.0)
+    z = np.where(np.isnan(z), np.inf, z)
+    tests = a.size
+    level = float(sidak_alpha(alpha, tests))
+    dof = 2.0 * math.pi * sigma * sigma
+    crit = float(student_t.isf(level / 2.0, dof))
+    ok = z <= crit
+    passed_map = ok.all(axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        signed = np.where(var > 0, d / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)
+    return BlurTest(bool(ok.all()), sigma, tests, level, dof, crit, int((~passed_map).sum()),
+                    float(z.max()) if z.size else 0.0,
+                    float(signed[var > 0].std()) if (var > 0).any() else 0.0,
+                    z.max(axis=2), passed_map)
+
+
+@dataclass
+class MeanTest:
+    """The mean difference of the whole image, per channel (:func:`mean_test`)."""
+    passed: bool
+    mean_diff: list[float]     #: per channel, ours - ref
+    se: list[float]            #: its standard error under H0
+    z: list[float]
+    p: list[float]             #: two-sided
+    alpha: float               #: per-channel level (Sidak over the channels)
+
+
+def mean_test(ours: np.ndarray, again: np.ndarray, ref: np.ndarray, tol: float,
+              exposure_slope: np.ndarray | None = None, var_log_exposure: float = 0.0,
+              alpha: float = ALPHA) -> MeanTest:
+    """Two-sided z-test of the mean of d = (ours + again)/2 - ref per channel, its variance
+    0.75 sum f^2 / n^2 from the floor f = ours - again (pixels independent; see
+    :func:`blur_test`) plus the exposure's 1.5 ``var_log_exposure`` mean(slope)^2; a mean
+    within ``tol`` passes. Sidak over the channels."""
+    from scipy.special import ndtr
+    a, b, r = (np.asarray(x, dtype=np.float64) for x in (ours, again, ref))
+    c = a.shape[-1]
+    d = ((a + b) / 2.0 - r).reshape(-1, c)
+    f = (a - b).reshape(-1, c)
+    n = d.shape[0]
+    m = d.mean(axis=0)
+    var = 0.75 * np.square(f).sum(axis=0) / n ** 2
+    if exposure_slope is not None and var_log_exposure > 0:
+        var = var + np.square(np.asarray(exposure_slope, np.float64).reshape(-1, c)
+                              .mean(axis=0)) * 1.5 * var_log_exposure
+    excess = np.maximum(np.abs(m) - tol, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(excess > 0, excess / np.sqrt(var), 0.0)
+    z = np.where(np.isnan(z), np.inf, z)
+    p = 2.0 * ndtr(-z)
+    level = float(sidak_alpha(alpha, c))
+    se = np.sqrt(var)
+    return MeanTest(bool((p >= level).all()), [float(x) for x in m], [float(x) for x in se],
+                    [float(x) for x in np.sign(m) * z], [float(x) for x in p], level)
+
+
+# -- pooled tests of the per-sub-sample z ------------------------------------------------------
+
+#: Level of each pooled family (tiles, objects), two-sided, before the Sidak correction.
+POOLED_ALPHA = 5e-3
+#: Each signed z is clipped to +-Z_CLIP before pooling: a lone outlier (which the
+#: per-sub-sample test already judges) must not fail a pool of a few hundred.
+Z_CLIP = 4.0
+#: Tile side in sub-samples.
+TILE = 16
+
+
+def signed_z(mean_a, var_a, mean_b, var_b, rtol: float = RTOL, atol: float = ATOL):
+    """(H, W, 3) signed z = (a - b) / sqrt(var_a + var_b) where the noise sd exceeds the float
+    tolerance, NaN elsewhere (those channels carry no noise to pool)."""
+    a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
+    sd = np.sqrt(np.asarray(var_a, np.float64) + np.asarray(var_b, np.float64))
+    noisy = sd > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(noisy, (a - b) / np.where(noisy, sd, 1.0), np.nan)
+
+
+@dataclass
+class PooledTest:
+    """Stouffer's Z over groups of sub-samples, per channel (:func:`stouffer`)."""
+    passed: bool
+    kind: str                  #: "tiles" or "objects"
+    groups: int                #: groups with noisy channels
+    tests: int                 #: groups x channels tested
+    alpha: float               #: per-test level after the Sidak correction
+    z_critical: float
+    max_abs_z: float | None
+    z_sd: float | None         #: sd of the pooled Z (about 1 under H0)
+    failing: list              #: [(group, channel, Z, n)] of the failing tests, worst first
+
+
+def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED_ALPHA,
+             clip: float = Z_CLIP, min_count: int = 16, names=None) -> PooledTest:
+    """Stouffer's Z = sum clip(z_i) / sqrt(n) over the noisy channels of each group (``labels``:
+    int (H, W), one group per value, negative: none) and channel, two-sided, Sidak-corrected
+    over every group and channel with at least ``min_count`` noisy values."""
+    from scipy.special import ndtri
+    z = np.asarray(z, dtype=np.float64)
+    lab = np.asarray(labels)
+    zc = np.clip(z, -clip, clip)
+    out, where = [], []
+    for g in np.unique(lab[lab >= 0]):
+        sel = zc[lab == g]                       # (n, 3)
+        for c in range(sel.shape[1]):
+            v = sel[:, c]
+            v = v[np.isfinite(v)]
+            if v.size >= min_count:
+                out.append(float(v.sum() / math.sqrt(v.size)))
+                where.append((g, c, v.size))
+    tests = len(out)
+    level = float(sidak_alpha(alpha, tests))
+    crit = float(-ndtri(level / 2.0))
+    zs = np.array(out)
+    bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
+           for (g, c, n), x in zip(where, out) if abs(x) > crit]
+    bad.sort(key=lambda t: -abs(t[2]))
+    return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
+                      float(np.abs(zs).max()) if tests else None,
+                      float(zs.std()) if tests > 1 else None, bad[:10])
+
+
+def tile_labels(shape: tuple[int, int], tile: int = TILE) -> np.ndarray:
+    """(H, W) tile index of each sub-sample, tiles of ``tile`` x ``tile``."""
+    h, w = shape
+    ty, tx = np.arange(h)[:, None] // tile, np.arange(w)[None, :] // tile
+    return (ty * (-(-w // tile)) + tx).astype(np.int64)

@@ -303,3 +303,42 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
     return SideImage(f"port ({result.mode})", result.linear.astype(np.float64), var,
                      np.clip(result.encoded.astype(np.float64), 0.0, 1.0), result.complexity,
                      seconds)
+
+
+def object_labels(xml: Path, grid: Grid, defines: dict | None = None
+                  ) -> tuple[np.ndarray, list[str]]:
+    """Which shape each sub-sample of the grid sees first along the lens centre's ray
+    (Mitsuba's intersection; -1: nothing, the sky), and the shapes' names. Pooling the
+    z-test over these groups tests each object as a whole."""
+    import drjit as dr
+    import mitsuba as mi
+    scene, _ = load_mitsuba(xml, grid, dict(defines or {}))
+    sensor = scene.sensors()[0]
+    cw, ch = (int(v) for v in sensor.film().crop_size())
+    j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")
+    u = ((i.ravel() + 0.5) / cw).astype(np.float32)
+    v = ((j.ravel() + 0.5) / ch).astype(np.float32)
+    ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5),
+                               mi.Point2f(mi.Float(u), mi.Float(v)), mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    hit = np.array(si.is_valid(), dtype=bool)
+    ptr = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
+    shapes = scene.shapes()
+    ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), dtype=np.int64)
+    order = np.argsort(ids)
+    pos = np.clip(np.searchsorted(ids[order], ptr), 0, ids.size - 1)
+    lab = np.where(hit & (ids[order][pos] == ptr), order[pos], -1).astype(np.int64)
+    names = [f"{k} {s.id() or _kind(s)}" for k, s in enumerate(shapes)]
+    return grid.take(lab.reshape(ch, cw)), names
+
+
+def _kind(shape) -> str:
+    """A shape's kind for a label: the class name, the C++ one for built-in shapes (whose
+    Python type is only Shape); a Python plugin's to_string may not be callable."""
+    name = type(shape).__name__
+    if name == "Shape":
+        try:
+            name = str(shape).split("[")[0].strip() or name
+        except RuntimeError:
+            pass
+    return name.lower()

@@ -13,7 +13,13 @@ mean FLIP <= 0.01 and the exposure test by default), 1 when one fails, 2 on bad 
 SCENE is a tutorial scene file (.txt: converted with the full model into
 OUT/SCENE.mitsuba.xml) or a converted
 Mitsuba XML (.xml: rendered as it is, against the scene file its converter header names, or
-the .txt of the same name next to it)."""
+the .txt of the same name next to it).
+
+--reference IMAGE compares the Mitsuba side with a render made elsewhere instead of the port:
+a .tga/.png on the displayed bytes, an .exr on the linear film; exactly for scenes without
+randomness (bytes within one level, or the float tolerance, on >= the pass rate), else a
+Gaussian-blurred difference and a mean difference against the noise floor of our side with
+two seeds (see docs/harness.md)."""
 
 from __future__ import annotations
 
@@ -65,6 +71,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-floor", action="store_true",
                    help="also render the port with seed + 1 and report FLIP and the z-test of "
                         "the port against itself (noise alone), to tell noise from disagreement")
+    p.add_argument("--reference", metavar="IMAGE",
+                   help="compare the Mitsuba side with this render (.tga or .png: the displayed "
+                        "image; .exr: the linear film, as codermind render writes them) instead "
+                        "of the port; one SCENE. Scenes without randomness must agree exactly "
+                        "(bytes within one level, or the float tolerance), random ones "
+                        "statistically against our side's noise floor (default --spp: the "
+                        "scene's Complexity, the sample count the reference must have)")
     p.add_argument("--workers", type=positive_int, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -84,6 +97,13 @@ def run(args: argparse.Namespace) -> int:
         raise CodermindError("--quirks strict sets the port's mode (strict): drop --port-mode")
     if "spp" in defines:
         raise CodermindError("-D spp=...: use --spp (it sets both sides)")
+    if args.reference is not None:
+        if len(args.scenes) != 1:
+            raise CodermindError(f"--reference {args.reference}: give one SCENE, got "
+                                 f"{len(args.scenes)}")
+        if args.noise_floor:
+            raise CodermindError("--noise-floor renders the port, which --reference replaces "
+                                 "(the noise floor is then our side with seed + 1)")
     opt = Options(spp=args.spp, seed=args.seed, rect=args.rect, stride=args.stride,
                   exposure=args.exposure, blob_max_error=args.blob_max_error,
                   port_mode="strict" if args.quirks == "strict" else args.port_mode,
@@ -91,7 +111,8 @@ def run(args: argparse.Namespace) -> int:
                   thresholds=Thresholds(args.min_pass_rate, args.max_flip,
                                         exposure_alpha=args.exposure_alpha),
                   progress=not args.quiet, workers=args.workers,
-                  noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds)
+                  noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds,
+                  reference=None if args.reference is None else Path(args.reference))
     try:
         with open_cluster(args.cluster, progress=not args.quiet):
             records, status = compare(args.scenes, opt, args.variant)

@@ -1,0 +1,165 @@
+"""The power of `codermind compare`: known errors injected into the Mitsuba side (an edited
+copy of the converted XML, or an XML default), each compared with the port at compare's
+default settings on a small grid; which are caught, by which test, and the smallest size
+caught. Writes a Markdown table (--out) and the records as JSON beside it.
+
+    python benchmarks/harness_power.py [--out docs/results/harness-power.md] [--only NAME ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "plugins"), str(ROOT / "reference")]
+SCENES = ROOT / "scenes"
+
+#: Grids: page 1 every 4th pixel (deterministic); page 4: the marble sphere and the floor
+#: (lens blur, turbulence, bump), and a patch of the glass blob.
+GRIDS = {"page1": ("page1", None, 4), "page4-marble": ("page4", (392, 130, 440, 170), 1),
+         "page4-blob": ("page4", (300, 250, 332, 274), 1)}
+
+
+def scale_rgb(old: str, factor: float) -> str:
+    return ", ".join(f"{float(v) * factor:.6g}" for v in old.split(","))
+
+
+def rgb_edit(pattern: str, factor: float):
+    """Scale the first <rgb> whose line matches ``pattern`` (a regex on the element)."""
+    def edit(text: str) -> str:
+        m = re.search(pattern, text)
+        if m is None:
+            raise SystemExit(f"no match for {pattern}")
+        return text[:m.start(1)] + scale_rgb(m.group(1), factor) + text[m.end(1):]
+    return edit
+
+
+def value_edit(name: str, old: str, new: str, nth: int = 0):
+    def edit(text: str) -> str:
+        needle = f'name="{name}" value="{old}"'
+        k = -1
+        for _ in range(nth + 1):
+            k = text.index(needle, k + 1)
+        return text[:k] + f'name="{name}" value="{new}"' + text[k + len(needle):]
+    return edit
+
+
+def gradient_edit(text: str) -> str:
+    out = re.sub(r'(<texture type="(?:turbulence|marble|perlin)"[^>]*>)',
+                 r'\1<string name="gradient" value="reference"/>', text)
+    return re.sub(r'(<bsdf type="noisebump"[^>]*>)', r'\1<string name="gradient" value="reference"/>',
+                  out)
+
+
+def cases():
+    """(error, size label, grid, XML edit or None, defines)."""
+    out = []
+    for pct in (1, 2, 5):
+        f = 1 + pct / 100
+        out.append(("material colour", f"+{pct} %", "page1",
+                    rgb_edit(r'<rgb name="diffuse" value="([^"]+)"', f), {}))
+        out.append(("material colour", f"+{pct} %", "page4-marble",
+                    rgb_edit(r'<rgb name="color0" value="([^"]+)"/>  <!-- Diffuse, line 77', f), {}))
+        out.append(("light intensity", f"+{pct} %", "page1",
+                    rgb_edit(r'<rgb name="intensity" value="([^"]+)"', f), {}))
+        out.append(("light intensity", f"+{pct} %, Light0", "page4-marble",
+                    rgb_edit(r'<rgb name="intensity" value="([^"]+)"', f), {}))
+        out.append(("light intensity", f"+{pct} %, Light1", "page4-marble",
+                    rgb_edit(r'<rgb name="intensity" value="([^"]+)"/>  <!-- Intensity, line 114',
+                             f), {}))
+    out.append(("refractive index", "2 -> 1.9", "page4-blob",
+                value_edit("density", "2", "1.9"), {}))
+    for new, label in (("0.09", "-10 %"), ("0.11", "+10 %")):
+        out.append(("bumplevel", label, "page4-blob", value_edit("bumplevel", "0.1", new, 1), {}))
+    out.append(("camera", "half a pixel (x)", "page1", value_edit("pixel_offset_x", "0", "1"), {}))
+    out.append(("camera", "half a pixel (x)", "page4-marble",
+                value_edit("pixel_offset_x", "0", "1"), {}))
+    for new, label in (("9", "-10 %"), ("11", "+10 %")):
+        out.append(("lens aperture", label, "page4-marble", value_edit("aperture", "10", new), {}))
+    out.append(("one segment less", "max_depth 11 -> 10", "page1", None, {"max_depth": "10"}))
+    out.append(("one segment less", "max_depth 11 -> 10", "page4-blob", None, {"max_depth": "10"}))
+    out.append(("noise gradient", "gradient=reference", "page4-marble", gradient_edit, {}))
+    out.append(("blob max_error", "x10", "page4-blob", None, {"blob0_max_error": "0.86487"}))
+    out.append(("none (control)", "-", "page1", None, {}))
+    out.append(("none (control)", "-", "page4-marble", None, {}))
+    out.append(("none (control)", "-", "page4-blob", None, {}))
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="harness-power.md")
+    ap.add_argument("--only", nargs="*", help="error names (substrings) to run")
+    args = ap.parse_args()
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+    import codermind  # noqa: F401
+    from codermind_harness.compare import Options, compare_scene, prepare
+    rows = []
+    work = Path(tempfile.mkdtemp(prefix="harness_power_"))
+    for k, (error, size, gname, edit, defines) in enumerate(cases()):
+        if args.only and not any(o in error for o in args.only):
+            continue
+        name, rect, stride = GRIDS[gname]
+        folder = work / f"case{k}"
+        folder.mkdir()
+        (folder / f"{name}.txt").symlink_to(SCENES / f"{name}.txt")
+        if (SCENES / "sky").is_dir():
+            (folder / "sky").symlink_to(SCENES / "sky")
+        text = (SCENES / f"{name}.xml").read_text(encoding="utf-8")
+        if edit is not None:
+            new = edit(text)
+            assert new != text, (error, size)
+            text = new
+        xml = folder / f"{name}.xml"
+        xml.write_text(text, encoding="utf-8")
+        opt = Options(rect=rect, stride=stride, out_dir=folder / "out", defines=dict(defines),
+                      progress=False, workers=2)
+        t0 = time.perf_counter()
+        rec = compare_scene(prepare(xml, opt), opt, f"{name}-{k}")
+        row = {"error": error, "size": size, "grid": gname, "caught": not rec["passed"],
+               "failures": rec["failures"], "pass_rate": rec["z_test"]["pass_rate"],
+               "flip": rec["flip_mean"], "flip_limit": rec.get("flip_limit"),
+               "pooled": {k2: v["max_abs_z"] for k2, v in (rec.get("pooled") or {}).items()},
+               "exposure_p": (rec["exposure_test"] or {}).get("p"),
+               "seconds": time.perf_counter() - t0}
+        rows.append(row)
+        print(f"{error:18s} {size:20s} {gname:13s} {'CAUGHT' if row['caught'] else 'missed'}"
+              f"  pass {row['pass_rate']:.4f} FLIP {row['flip']:.4f}/{row['flip_limit'] or 0:.4f}"
+              f" pooled {row['pooled']} E p {row['exposure_p']} ({row['seconds']:.0f} s)",
+              flush=True)
+    out = Path(args.out)
+    out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
+    out.write_text(markdown(rows, " ".join(sys.argv[1:])))
+    return 0
+
+
+def which(failures: list[str]) -> str:
+    """The tests that failed, in short."""
+    keys = (("z-test", "z-test"), ("pooled z over tiles", "tiles"),
+            ("pooled z over objects", "objects"), ("mean FLIP", "FLIP"),
+            ("auto exposure", "exposure"))
+    return ", ".join(short for key, short in keys if any(f.startswith(key) for f in failures))
+
+
+def markdown(rows: list[dict], argv: str) -> str:
+    lines = ["| error | size | grid | caught | by | z pass rate | pooled max Z (tiles / objects) "
+             "| FLIP / limit | exposure p |", "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for r in rows:
+        pooled = " / ".join(f"{v:.3g}" for v in r["pooled"].values()) or "-"
+        lines.append(f"| {r['error']} | {r['size']} | {r['grid']} | "
+                     f"{'**yes**' if r['caught'] else 'no'} | {which(r['failures']) or '-'} | "
+                     f"{r['pass_rate']:.4f} | {pooled} | {r['flip']:.4f} / "
+                     f"{(r['flip_limit'] or 0):.4f} | "
+                     f"{'-' if r['exposure_p'] is None else format(r['exposure_p'], '.2g')} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
