@@ -96,7 +96,16 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="harness-power.md")
     ap.add_argument("--only", nargs="*", help="error names (substrings) to run")
+    ap.add_argument("--cluster", metavar="ADDRESS",
+                    help="tcp://HOST:PORT or local:N: each case's port tiles and Mitsuba renders "
+                         "run as Dask tasks (docs/cluster.md); the cases run one after another")
     args = ap.parse_args()
+    from codermind_harness.cluster import open_cluster
+    with open_cluster(args.cluster):
+        return run(args)
+
+
+def run(args: argparse.Namespace) -> int:
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
