@@ -107,19 +107,24 @@ def test_zero_aperture_is_the_builtin_pinhole(llvm, lens):
     assert np.abs(o - o_ref).max() < 1e-6
 
 
-def test_disc_lens_matches_builtin_thinlens_rays(llvm):
+@pytest.mark.parametrize("name", ["aperture", "aperture_radius"])
+def test_disc_lens_matches_builtin_thinlens_rays(llvm, name):
+    """External reference: the built-in thinlens with the same radius, given as the disc
+    lens's ``aperture`` or as thinlens's own name ``aperture_radius``."""
     mi = llvm
     common = {"fov": 40.0, "focus_distance": 3.0, "near_clip": 0.1, "far_clip": 50.0,
               "to_world": mi.ScalarTransform4f().look_at([0, 1, -4], [0, 0, 0], [0, 1, 0]),
               "film": {"type": "hdrfilm", "width": 32, "height": 24}}
     thinlens = mi.load_dict({"type": "thinlens", "aperture_radius": 0.2, **common})
-    conic = mi.load_dict({"type": "conic", "aperture": 0.2, **common})
+    conic = mi.load_dict({"type": "conic", name: 0.2, **common})
     rng = np.random.default_rng(4)
     s2, s3 = rng.random((2, 1000)), rng.random((2, 1000))
     ref, mine = rays(mi, thinlens, s2, s3), rays(mi, conic, s2, s3)
     assert np.abs(mine[0] - ref[0]).max() < 1e-5
     assert np.abs(mine[1] - ref[1]).max() < 1e-6
     assert np.allclose(mine[2], ref[2], rtol=1e-5)
+    if name == "aperture_radius":
+        assert float(mi.traverse(conic)["aperture_radius"][0]) == pytest.approx(0.2)
 
 
 def dof_scene(mi, sensor):
