@@ -20,7 +20,8 @@ outputs, atomically as without a cluster):
 * the chart: one point (one method at one setting, one repeat round) per task
   (:meth:`Cluster.run_calls`); a chart's ``MitsubaRunner`` pickles as its bundle and becomes a
   per-worker runner with its own scene cache;
-* the stability sweeps: one sweep per task (the points of a sweep run inside its function).
+* the stability sweeps: one point per task (``stability.Plan``: every sweep's points are
+  submitted at once; the client assembles each sweep from its points' results).
 
 No shared filesystem: everything a task reads travels with it (or is scattered). A worker that
 dies mid-task has its task re-run by the scheduler; since a task's result depends only on its

@@ -1,17 +1,26 @@
 """Stability sweeps: drive each method into the regime where it fails and measure where.
 
-Every sweep is a function ``sweep(quick: bool) -> SweepResult`` registered in :data:`SWEEPS`
-(its module is imported only when the sweep runs). A result holds the swept parameter's
-values, the measured quantity (as curves for the figure), the threshold found (a number and a
-sentence) and the sweep's *never-happen* checks: NaN or Inf in an output, a crash, a silent
-wrong answer where an error was due. :func:`run` runs sweeps (a sweep that raises becomes a
-failed check, the others still run); :func:`write_report` writes ``stability.md``,
-``stability.json`` and one ``NAME.png`` per sweep.
+Every sweep is a function ``sweep(quick: bool)`` registered in :data:`SWEEPS` (its module is
+imported only when the sweep runs). It returns a :class:`Plan`, the sweep split into its
+points: a list of point inputs, a module-level function computing one point (picklable inputs
+and results, no shared state: on a cluster each point is one task), and ``assemble``, which
+turns the points' results, in order, into the :class:`SweepResult` on the client (or into a
+further :class:`Plan`, a second round of points that depend on the first). A sweep function
+may also return its ``SweepResult`` directly (one task).
+
+A result holds the swept parameter's values, the measured quantity (as curves for the figure),
+the threshold found (a number and a sentence) and the sweep's *never-happen* checks: NaN or Inf
+in an output, a crash, a silent wrong answer where an error was due. :func:`run` runs sweeps
+(a sweep that raises becomes a failed check, the others still run); :func:`write_report`
+writes ``stability.md``, ``stability.json`` and one ``NAME.png`` per sweep.
+
+Random inputs are drawn on the client when the plan is made, in the order the sweep always
+drew them (or a point gets the generator's state to draw its own share), so a point's result
+depends only on its inputs and the results are the same wherever the points ran.
 """
 
 from __future__ import annotations
 
-import functools
 import importlib
 import json
 import math
@@ -19,7 +28,7 @@ import time
 import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -105,13 +114,79 @@ def first_crossing(xs, ys, limit: float) -> float | None:
     return None
 
 
+def finite_counts(*arrays) -> tuple[int, int]:
+    """(non-finite values, values) of ``arrays``: what a point returns for a later
+    :func:`finite_check_counts` instead of the arrays themselves."""
+    bad = sum(int(np.size(a) - np.isfinite(np.asarray(a, dtype=np.float64)).sum()) for a in arrays)
+    return bad, sum(int(np.size(a)) for a in arrays)
+
+
+def finite_check_counts(result: SweepResult, what: str, counts) -> bool:
+    """:func:`finite_check` from points' :func:`finite_counts` (summed)."""
+    bad = sum(c[0] for c in counts)
+    total = sum(c[1] for c in counts)
+    return result.check(what, bad == 0, f"{bad} of {total} values non-finite")
+
+
+@dataclass
+class Plan:
+    """A sweep as points: ``point(p)`` for each ``p`` of ``points`` (one task each on a
+    cluster: ``point`` a module-level function, ``p`` and its result picklable), then
+    ``assemble(results)`` on the client, the results in the order of ``points``; it returns
+    the :class:`SweepResult`, or a further Plan (points that depend on these results)."""
+    points: list
+    point: Callable[[Any], Any]
+    assemble: Callable[[list], Any]
+
+
+def states(rng: np.random.Generator, draw: Callable[[np.random.Generator], Any],
+           count: int) -> list[dict]:
+    """The generator's state before each of ``count`` successive ``draw(rng)`` (the draws are
+    made here and dropped): a point given its state makes its own draw with :func:`generator`,
+    the numbers the sweep drew when it ran in one piece."""
+    out = []
+    for _ in range(count):
+        out.append(rng.bit_generator.state)
+        draw(rng)
+    return out
+
+
+def generator(state: dict) -> np.random.Generator:
+    """A generator in ``state`` (from :func:`states`)."""
+    bits = getattr(np.random, state["bit_generator"])()
+    bits.state = state
+    return np.random.Generator(bits)
+
+
+def _timed(point: Callable, p) -> tuple[Any, float]:
+    """One point and the seconds it took (where it ran)."""
+    t0 = time.perf_counter()
+    return point(p), time.perf_counter() - t0
+
+
+def _crashed(name: str, e: BaseException) -> SweepResult:
+    result = SweepResult(name, SWEEPS[name][2], "-", "-", "crashed", None)
+    tb = traceback.format_exception(type(e), e, e.__traceback__)
+    result.check("the sweep runs without an exception", False, f"{type(e).__name__}: {e}")
+    result.notes.append("".join(tb[-3:]).strip())
+    return result
+
+
+def _start(name: str, quick: bool):
+    """The sweep's first Plan (or its SweepResult) and the client seconds it took."""
+    module, function, _ = SWEEPS[name]
+    t0 = time.perf_counter()
+    sweep = getattr(importlib.import_module(f"codermind_harness.{module}"), function)
+    return sweep(quick), time.perf_counter() - t0
+
+
 def run(names: list[str] | None = None, quick: bool = False,
         progress: Callable[[str], None] | None = None) -> list[SweepResult]:
     """Run the named sweeps (default: all) in registry order."""
     names = list(SWEEPS) if not names else [n for n in SWEEPS if n in names]
     from .cluster import current
-    if current() is not None:      # one sweep per task, under the cluster's progress line
-        return current().map(functools.partial(run_one, quick=quick), names)
+    if current() is not None:      # one point per task, under the cluster's progress line
+        return _run_on_cluster(current(), names, quick)
     results = []
     for i, name in enumerate(names, start=1):
         if progress:
@@ -126,23 +201,60 @@ def run(names: list[str] | None = None, quick: bool = False,
 
 
 def run_one(name: str, quick: bool = False) -> SweepResult:
-    """One sweep; a crash becomes a failed never-happen check."""
+    """One sweep, its points one after another here; a crash becomes a failed never-happen
+    check."""
     from codermind.errors import CodermindError
-    module, function, description = SWEEPS[name]
     t0 = time.perf_counter()
     try:
-        sweep = getattr(importlib.import_module(f"codermind_harness.{module}"), function)
-        result = sweep(quick)
+        result, _ = _start(name, quick)
+        while isinstance(result, Plan):
+            result = result.assemble([result.point(p) for p in result.points])
     except CodermindError:  # the environment (e.g. no usable LLVM), not the method
         raise
     except Exception as e:  # a crash is a failed never-happen check, not the end of the run
-        result = SweepResult(name, description, "-", "-", "crashed", None)
-        tb = traceback.format_exception(type(e), e, e.__traceback__)
-        result.check("the sweep runs without an exception", False,
-                     f"{type(e).__name__}: {e}")
-        result.notes.append("".join(tb[-3:]).strip())
+        result = _crashed(name, e)
     result.seconds = time.perf_counter() - t0
     return result
+
+
+def _run_on_cluster(cluster, names: list[str], quick: bool) -> list[SweepResult]:
+    """Every sweep's points submitted at once (one task each), each sweep assembled here in
+    registry order as its points come back. ``seconds``: the client's time for the plans and
+    assembly plus the points' times on the workers."""
+    from codermind.errors import CodermindError
+    state: dict[str, list] = {}         # name -> [plan or result or exception, futures, s]
+    for name in names:
+        try:
+            plan, seconds = _start(name, quick)
+        except CodermindError:
+            raise
+        except Exception as e:          # noqa: BLE001  (a crash of the sweep's plan)
+            plan, seconds = e, 0.0
+        futures = (cluster.submit_all(_timed, [(plan.point, p) for p in plan.points])
+                   if isinstance(plan, Plan) else [])
+        state[name] = [plan, futures, seconds]
+    results = []
+    for name in names:
+        plan, futures, seconds = state[name]
+        try:
+            if isinstance(plan, Exception):
+                raise plan
+            while isinstance(plan, Plan):
+                timed = list(cluster.results(futures))
+                seconds += sum(s for _, s in timed)
+                t0 = time.perf_counter()
+                plan = plan.assemble([r for r, _ in timed])
+                seconds += time.perf_counter() - t0
+                if isinstance(plan, Plan):
+                    futures = cluster.submit_all(_timed, [(plan.point, p) for p in plan.points])
+            result = plan
+        except CodermindError:
+            raise
+        except Exception as e:          # noqa: BLE001  (a crashed point or assembly)
+            result = _crashed(name, e)
+        result.seconds = seconds
+        results.append(result)
+    return results
 
 
 # -- report --------------------------------------------------------------------------------

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from .stability import Series, SweepResult, finite_check
+from .stability import Plan, Series, SweepResult, finite_check_counts, finite_counts
 
 CRITICAL = 2.0 * math.sqrt(2.0)          # D / R where the neck closes
 
@@ -77,13 +77,49 @@ def _mesh_neck(v: np.ndarray, f: np.ndarray, x_mid: float) -> float:
     return float(np.hypot(p[:, 1], p[:, 2]).mean())
 
 
-def blob_neck(quick: bool = False) -> SweepResult:
+ERRORS = (1 / 500, 1 / 50)        # max_error / R: the plugin's default, and coarse
+FIELDS = ("tutorial", "exact")
+
+
+def _offsets(quick: bool) -> list[float]:
+    return [-0.3, -0.1, -0.03, -0.01, -0.003, -0.001, -0.0003, -0.0001, 0.0001, 0.001, 0.01,
+            0.03, 0.1] if not quick else [-0.1, -0.01, -0.001, 0.001, 0.01, 0.1]
+
+
+def _mesh_point(p: tuple) -> dict:
+    """(field, max_error, D): one mesh, its row of the table and the finiteness of its
+    vertices."""
     from codermind.blobmesh import build_blob_mesh
-    offsets = [-0.3, -0.1, -0.03, -0.01, -0.003, -0.001, -0.0003, -0.0001, 0.0001, 0.001, 0.01,
-               0.03, 0.1] if not quick else [-0.1, -0.01, -0.001, 0.001, 0.01, 0.1]
-    errors = [1 / 500, 1 / 50]                 # max_error / R: the plugin's default, and coarse
-    fields = ["tutorial", "exact"]
-    rows, outputs = [], []
+    field, err, d = p
+    mesh = build_blob_mesh(np.array([[0.0, 0.0, 0.0], [d, 0.0, 0.0]]), 1.0, field, err)
+    v, f = mesh.vertices, mesh.faces
+    topo = _topology(v, f)
+    true_components = 1 if d < CRITICAL else 2
+    neck, gap = _true_neck(d), _true_gap(d, field)
+    measured = _mesh_neck(v, f, d / 2)
+    h = float(mesh.info.get("cell_size", float("nan")))
+    reported = mesh.achieved_error > err or bool(mesh.info.get("lost_necks"))
+    row = {"field": field, "max_error": err, "D": d, "true_neck": neck,
+           "true_gap": gap, "true_components": true_components,
+           "mesh_neck": measured, **topo, "cell_size": h,
+           "achieved_error": float(mesh.achieved_error),
+           "lost_necks": list(mesh.info.get("lost_necks", [])),
+           "reported": reported, "triangles": int(len(f))}
+    return {"row": row, "finite": finite_counts(v)}
+
+
+def blob_neck(quick: bool = False) -> Plan:
+    """Points: one mesh per field, max_error and distance; then (a second round) the
+    picture of the mesh closest to pinching off that kept its topology."""
+    offsets = _offsets(quick)
+    points = [(field, err, CRITICAL + off) for field in FIELDS for err in ERRORS
+              for off in offsets]
+    return Plan(points, _mesh_point, lambda results: _assemble(offsets, results))
+
+
+def _assemble(offsets: list[float], results: list[dict]) -> Plan:
+    errors, fields = list(ERRORS), list(FIELDS)
+    rows = [x["row"] for x in results]
     r = SweepResult(
         "blob_neck", "blob mesher vs neck thickness (two sources at distance D)",
         parameter=f"D / R from {CRITICAL + offsets[0]:.4f} to {CRITICAL + offsets[-1]:.4f} "
@@ -93,34 +129,16 @@ def blob_neck(quick: bool = False) -> SweepResult:
                  "characteristic per component, neck radius at the mid-plane",
         threshold="", threshold_value=None, xlabel="true neck radius / R (negative: gap / 2)",
         ylabel="mesh neck radius / R", xlog=False, ylog=False)
-    for field in fields:
-        for err in errors:
-            xs, ys = [], []
-            for off in offsets:
-                d = CRITICAL + off
-                mesh = build_blob_mesh(np.array([[0.0, 0.0, 0.0], [d, 0.0, 0.0]]), 1.0, field,
-                                       err)
-                v, f = mesh.vertices, mesh.faces
-                outputs.append(v)
-                topo = _topology(v, f)
-                true_components = 1 if d < CRITICAL else 2
-                neck, gap = _true_neck(d), _true_gap(d, field)
-                measured = _mesh_neck(v, f, d / 2)
-                h = float(mesh.info.get("cell_size", float("nan")))
-                reported = mesh.achieved_error > err or bool(mesh.info.get("lost_necks"))
-                rows.append({"field": field, "max_error": err, "D": d, "true_neck": neck,
-                             "true_gap": gap, "true_components": true_components,
-                             "mesh_neck": measured, **topo, "cell_size": h,
-                             "achieved_error": float(mesh.achieved_error),
-                             "lost_necks": list(mesh.info.get("lost_necks", [])),
-                             "reported": reported, "triangles": int(len(f))})
-                xs.append(neck if d < CRITICAL else -gap / 2)
-                ys.append(measured)
-            r.series.append(Series(f"{field}, max_error R/{round(1 / err)}", xs, ys))
+    k = len(offsets)
+    for i, (field, err) in enumerate((f, e) for f in fields for e in errors):
+        mine = rows[i * k:(i + 1) * k]
+        xs = [row["true_neck"] if row["D"] < CRITICAL else -row["true_gap"] / 2 for row in mine]
+        r.series.append(Series(f"{field}, max_error R/{round(1 / err)}", xs,
+                               [row["mesh_neck"] for row in mine]))
     r.series.append(Series("true neck", list(r.series[0].x),
                            [max(x, 0.0) for x in r.series[0].x], "--", "k"))
     r.table = rows
-    finite_check(r, "vertices finite", *outputs)
+    finite_check_counts(r, "vertices finite", [x["finite"] for x in results])
     r.check("every mesh watertight and consistently oriented",
             all(row["watertight"] and row["oriented"] for row in rows),
             "; ".join(f"{row['field']} D {row['D']:.5f}" for row in rows
@@ -161,19 +179,25 @@ def blob_neck(quick: bool = False) -> SweepResult:
     r.threshold_value = min(row["true_neck"] for row in rows
                             if row["true_components"] == 1 and row["components"] == 1)
     r.lines = [("x", 0.0, "pinch-off")]
-    r.image, r.image_title = _picture(rows)
-    return r
+    row = _pictured(rows)
+
+    def finish(picture: list) -> SweepResult:
+        r.image, r.image_title = picture[0] if picture else (None, "")
+        return r
+    return Plan([row] if row is not None else [], _picture, finish)
 
 
-def _picture(rows) -> tuple[np.ndarray | None, str]:
-    """The mesh closest to pinching off that still has the true (one-piece) topology, drawn
-    as its silhouette around the neck (x-y plane, 200 x 100)."""
-    from codermind.blobmesh import build_blob_mesh
+def _pictured(rows) -> dict | None:
+    """The mesh closest to pinching off that still has the true (one-piece) topology."""
     ok = [row for row in rows if row["true_components"] == 1 and row["components"] == 1
           and row["max_error"] == rows[0]["max_error"] and row["field"] == "tutorial"]
-    if not ok:
-        return None, ""
-    row = min(ok, key=lambda r: r["true_neck"])
+    return min(ok, key=lambda r: r["true_neck"]) if ok else None
+
+
+def _picture(row: dict) -> tuple[np.ndarray, str]:
+    """The mesh of ``row`` (see :func:`_pictured`) drawn as its silhouette around the neck
+    (x-y plane, 200 x 100)."""
+    from codermind.blobmesh import build_blob_mesh
     d = row["D"]
     mesh = build_blob_mesh(np.array([[0.0, 0.0, 0.0], [d, 0.0, 0.0]]), 1.0, "tutorial",
                            row["max_error"])

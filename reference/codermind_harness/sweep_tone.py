@@ -11,12 +11,13 @@ turned silently into a plausible pixel: the render says so.
 from __future__ import annotations
 
 import math
+import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .stability import Series, SweepResult
+from .stability import Plan, Series, SweepResult
 
 SETS = {                        # (Midpoint, Power, Black)
     "default 0.6/3/0.1": (0.6, 3.0, 0.1),
@@ -59,6 +60,12 @@ def _page4_scene(folder: Path, light: str, objects: str = "", name: str = "s.txt
     return path
 
 
+def _here(warnings: list[str], folder: str) -> list[str]:
+    """The warnings without the temporary folder's name (which differs in every run and
+    process): the scene's file name alone."""
+    return [w.replace(str(Path(folder)) + os.sep, "") for w in warnings]
+
+
 def _first_white(tm) -> float | None:
     """The smallest exposed radiance whose byte is the brightest (bisection on log c)."""
     from codermind_ref import tonemap
@@ -74,11 +81,42 @@ def _first_white(tm) -> float | None:
     return 10.0 ** hi
 
 
-def tone_curve(quick: bool = False) -> SweepResult:
+RENDERS = (("1.3", "nan"), ("1.1", "nan"), ("1.3", "inf"), ("1.1", "inf"), ("1.3", "1e200"))
+
+
+def _tone_point(p: tuple) -> dict:
+    """("setting", label, quick): one tone-map setting over the radiance sweep;
+    ("render", version, light): a tiny scene whose light is ``light``, its lit bytes and the
+    render's new warnings."""
     import codermind_ref as ref
     from codermind_ref import tonemap
     from codermind_ref.scene import Tonemap
+    if p[0] == "render":
+        _, version, light = p
+        with tempfile.TemporaryDirectory() as tmp:
+            scene = ref.parse_scene(_page4_scene(Path(tmp), light, version=version))
+            with np.errstate(all="ignore"):
+                result = ref.render(scene, "clean", exposure=1.0)
+        return {"lit": result.rgb8[4:12, 8:16],
+                "new": _here(result.warnings[len(scene.warnings):], tmp)}
+    _, label, quick = p
     c = np.concatenate([[0.0], 10.0 ** np.arange(-30, 309, 4 if quick else 1)])
+    tm = Tonemap(*SETS[label])
+    out = tonemap.curve(c, tm)
+    bad = ~np.isfinite(out)
+    special = tonemap.curve(np.array(list(SPECIAL.values())), tm)
+    return {"out": out, "nan_from": float(c[bad][0]) if bad.any() else None,
+            "saturate": _first_white(tm), "plot": list(tonemap.curve(PLOT_C, tm)),
+            "special": special, "special_bytes": _bytes(special), "c": c}
+
+
+def tone_curve(quick: bool = False) -> Plan:
+    """Points: each tone-map setting, each render of a non-finite or huge light."""
+    points = [("setting", label, quick) for label in SETS] + [("render",) + v for v in RENDERS]
+    return Plan(points, _tone_point, _tone_assemble)
+
+
+def _tone_assemble(results: list[dict]) -> SweepResult:
     r = SweepResult("tone_curve", "port tone curve vs radiance",
                     parameter="exposed radiance c = 0, 1e-30 to 1e308, inf, nan; 7 tone-map "
                               "settings and page 2's 1 - exp(-c)",
@@ -86,16 +124,13 @@ def tone_curve(quick: bool = False) -> SweepResult:
                     threshold="", threshold_value=None, xlabel="exposed radiance c (the sweep runs to 1e308)",
                     ylabel="curve value (1 = white)", ylog=False)
     nan_from, saturate, table = {}, {}, []
-    for label, (mid, power, black) in SETS.items():
-        tm = Tonemap(mid, power, black)
-        out = tonemap.curve(c, tm)
-        bad = ~np.isfinite(out)
-        nan_from[label] = float(c[bad][0]) if bad.any() else None
-        saturate[label] = _first_white(tm)
-        r.series.append(Series(label, list(PLOT_C), list(tonemap.curve(PLOT_C, tm)), "-"))
-        special = tonemap.curve(np.array(list(SPECIAL.values())), tm)
+    for label, x in zip(SETS, results):
+        out, special, c = x["out"], x["special"], x["c"]
+        nan_from[label] = x["nan_from"]
+        saturate[label] = x["saturate"]
+        r.series.append(Series(label, list(PLOT_C), x["plot"], "-"))
         row = {"setting": label}
-        for (name, _), value, byte in zip(SPECIAL.items(), special, _bytes(special)):
+        for (name, _), value, byte in zip(SPECIAL.items(), special, x["special_bytes"]):
             row[name] = f"{value:.6g} -> {int(byte)}"
         table.append(row)
         finite = np.isfinite(out[c >= 0])
@@ -114,29 +149,23 @@ def tone_curve(quick: bool = False) -> SweepResult:
         for row in table[:1]))
     # A NaN radiance must not become a plausible pixel silently: render scenes whose light is
     # nan (and inf, 1e200) with a fixed exposure and look at bytes and warnings.
-    with tempfile.TemporaryDirectory() as tmp:
-        for version, light in (("1.3", "nan"), ("1.1", "nan"), ("1.3", "inf"), ("1.1", "inf"),
-                               ("1.3", "1e200")):
-            scene = ref.parse_scene(_page4_scene(Path(tmp), light, version=version))
-            with np.errstate(all="ignore"):
-                result = ref.render(scene, "clean", exposure=1.0)
-            lit = result.rgb8[4:12, 8:16]
-            new = result.warnings[len(scene.warnings):]
-            said = any("non-finite" in w for w in new)
-            page = 4 if version == "1.3" else 2
-            r.notes.append(f"page {page}, Intensity = {light}: lit pixels show bytes "
-                           f"{sorted(set(lit.ravel().tolist()))[:6]}; render warnings: "
-                           f"{new if new else 'none'}")
-            if light == "nan":
-                r.check(f"page {page}: a NaN radiance does not pass silently (the render warns)",
-                        said, f"bytes {sorted(set(lit.ravel().tolist()))[:4]}, warnings {new}")
-            elif light == "inf":     # inf x 0 (the unlit colour channels) is NaN
-                r.check(f"page {page}: Intensity = inf renders white ({WHITE}) or warns",
-                        bool((lit == WHITE).all()) or said,
-                        f"bytes {sorted(set(lit.ravel().tolist()))[:4]}, warned: {said}")
-            else:
-                r.check(f"page {page}: Intensity = {light} renders white ({WHITE})",
-                        bool((lit == WHITE).all()), f"bytes {sorted(set(lit.ravel().tolist()))[:4]}")
+    for (version, light), x in zip(RENDERS, results[len(SETS):]):
+        lit, new = x["lit"], x["new"]
+        said = any("non-finite" in w for w in new)
+        page = 4 if version == "1.3" else 2
+        r.notes.append(f"page {page}, Intensity = {light}: lit pixels show bytes "
+                       f"{sorted(set(lit.ravel().tolist()))[:6]}; render warnings: "
+                       f"{new if new else 'none'}")
+        if light == "nan":
+            r.check(f"page {page}: a NaN radiance does not pass silently (the render warns)",
+                    said, f"bytes {sorted(set(lit.ravel().tolist()))[:4]}, warnings {new}")
+        elif light == "inf":     # inf x 0 (the unlit colour channels) is NaN
+            r.check(f"page {page}: Intensity = inf renders white ({WHITE}) or warns",
+                    bool((lit == WHITE).all()) or said,
+                    f"bytes {sorted(set(lit.ravel().tolist()))[:4]}, warned: {said}")
+        else:
+            r.check(f"page {page}: Intensity = {light} renders white ({WHITE})",
+                    bool((lit == WHITE).all()), f"bytes {sorted(set(lit.ravel().tolist()))[:4]}")
     broken = {k: v for k, v in nan_from.items() if v is not None}
     r.threshold = ((("curve non-finite from c = " + ", ".join(
         f"{v:.2g} ({k})" for k, v in broken.items()) + "; ") if broken else
@@ -146,40 +175,49 @@ def tone_curve(quick: bool = False) -> SweepResult:
     return r
 
 
-def auto_exposure(quick: bool = False) -> SweepResult:
-    """Spec 2.5: E = -ln(1 - Midpoint) / M with M the RMS luminance of 16 x 16 probe rays,
-    and E = -1 if M = 0. A lit sphere shrinks until no probe hits it: then E = -1."""
+RADII = [0.0, 0.5, 1.0, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 20.0]
+RADII_QUICK = [0.0, 1.0, 4.0, 20.0]
+
+
+def _exposure_point(radius: float) -> dict:
+    """A lit sphere of ``radius`` centred between four probe rays: E, its bytes, warnings."""
     import codermind_ref as ref
-    radii = [0.0, 0.5, 1.0, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 20.0] if not quick else \
-        [0.0, 1.0, 4.0, 20.0]
+    with tempfile.TemporaryDirectory() as tmp:
+        # the 64 x 64 image's probes sit at multiples of 4 pixels; the sphere is centred at
+        # (34, 34) on the image plane (between probes), at the projection distance
+        pd = 32 / math.tan(math.radians(30))
+        objects = ("Material0 { Diffuse = 0.8; }\n" if radius == 0 else
+                   f"Material0 {{ Diffuse = 0.8; }}\nSphere0 {{ Center = 34, 34, {pd}; "
+                   f"Size = {radius}; Material.Id = 0; }}\n")
+        scene = ref.parse_scene(_page4_scene(Path(tmp), "1", objects, size="64"))
+        result = ref.render(scene, "clean", seed=1)
+    sphere = result.rgb8[28:30, 33:35]              # display rows: y = 34..35
+    return {"row": {"radius": radius, "exposure": result.exposure,
+                    "sphere_bytes": sorted(set(sphere.ravel().tolist())),
+                    "warnings": _here(result.warnings[len(scene.warnings):], tmp)},
+            "mean": float(sphere.mean()) / 255,
+            "image": result.rgb8[12:56, 12:56] / 255.0 if radius == 2.0 else None}
+
+
+def auto_exposure(quick: bool = False) -> Plan:
+    """Spec 2.5: E = -ln(1 - Midpoint) / M with M the RMS luminance of 16 x 16 probe rays,
+    and E = -1 if M = 0. A lit sphere shrinks until no probe hits it: then E = -1.
+    Points: each radius."""
+    radii = RADII_QUICK if quick else RADII
+    return Plan(list(radii), _exposure_point, lambda results: _exposure(radii, results))
+
+
+def _exposure(radii: list[float], results: list[dict]) -> SweepResult:
     r = SweepResult("auto_exposure", "port auto exposure vs a shrinking lit sphere",
                     parameter="radius of the only lit object (a sphere centred between four "
                               "probe rays, 64x64 image, probes every 4 pixels)",
                     measured="auto exposure E, sphere pixels' bytes, render warnings",
                     threshold="", threshold_value=None, xlabel="sphere radius (pixels at its "
                     "depth)", ylabel="E; mean byte of the sphere / 255", xlog=False, ylog=False)
-    exposures, means, rows = [], [], []
-    image = None
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        # the 64 x 64 image's probes sit at multiples of 4 pixels; the sphere is centred at
-        # (34, 34) on the image plane (between probes), at the projection distance
-        pd = 32 / math.tan(math.radians(30))
-        for radius in radii:
-            objects = ("Material0 { Diffuse = 0.8; }\n" if radius == 0 else
-                       f"Material0 {{ Diffuse = 0.8; }}\nSphere0 {{ Center = 34, 34, {pd}; "
-                       f"Size = {radius}; Material.Id = 0; }}\n")
-            scene = ref.parse_scene(_page4_scene(folder, "1", objects, size="64"))
-            result = ref.render(scene, "clean", seed=1)
-            new = result.warnings[len(scene.warnings):]
-            exposures.append(result.exposure)
-            sphere = result.rgb8[28:30, 33:35]              # display rows: y = 34..35
-            means.append(float(sphere.mean()) / 255)
-            rows.append({"radius": radius, "exposure": result.exposure,
-                         "sphere_bytes": sorted(set(sphere.ravel().tolist())),
-                         "warnings": new})
-            if radius == 2.0:
-                image = result.rgb8[12:56, 12:56] / 255.0
+    rows = [x["row"] for x in results]
+    exposures = [row["exposure"] for row in rows]
+    means = [x["mean"] for x in results]
+    image = next((x["image"] for x in results if x["image"] is not None), None)
     r.series = [Series("E", radii, exposures), Series("mean sphere byte / 255", radii, means, "s--")]
     r.table = rows
     black = [row for row in rows if row["exposure"] == -1.0]

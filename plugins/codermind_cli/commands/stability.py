@@ -29,7 +29,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run only these sweeps: " + ", ".join(_sweep_names()))
     p.add_argument("--cluster", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
-                        "(N worker processes here); default: this machine; one sweep per task")
+                        "(N worker processes here); default: this machine; one sweep point per "
+                        "task")
 
 
 def run(args: argparse.Namespace) -> int:
