@@ -4,6 +4,10 @@ default settings on a small grid; which are caught, by which test, and the small
 caught. Writes a Markdown table (--out) and the records as JSON beside it.
 
     python benchmarks/harness_power.py [--out docs/results/harness-power.md] [--only NAME ...]
+                                       [--cluster ADDRESS]
+
+With --cluster each case is one Dask task: its scene text, edited XML and the files they name
+(the cube-map faces, sent once per page) travel with it; the client writes the table.
 """
 
 from __future__ import annotations
@@ -97,56 +101,101 @@ def main() -> int:
     ap.add_argument("--out", default="harness-power.md")
     ap.add_argument("--only", nargs="*", help="error names (substrings) to run")
     ap.add_argument("--cluster", metavar="ADDRESS",
-                    help="tcp://HOST:PORT or local:N: each case's port tiles and Mitsuba renders "
-                         "run as Dask tasks (docs/cluster.md); the cases run one after another")
+                    help="tcp://HOST:PORT or local:N: one injected-error case per Dask task "
+                         "(docs/cluster.md); the scene, the edited XML and the cube-map faces "
+                         "travel with the tasks, the client writes the table")
     args = ap.parse_args()
     from codermind_harness.cluster import open_cluster
-    with open_cluster(args.cluster):
-        return run(args)
+    with open_cluster(args.cluster) as cluster:
+        return run(args, cluster)
 
 
-def run(args: argparse.Namespace) -> int:
+#: ``Cubemap.Up = sky/skyup.tga;`` in a tutorial scene; ``<string name=".." value="FILE"/>``
+#: in the XML: the files a case needs besides its two texts, relative to scenes/.
+_TXT_FILE = re.compile(r"^\s*Cubemap\.\w+\s*=\s*([^;]+);", re.M)
+_XML_FILE = re.compile(r'<string\s+name="[^"]+"\s+value="([^"]+)"')
+
+
+def inputs(name: str) -> dict:
+    """The files scenes/NAME.txt and scenes/NAME.xml name (relative path -> bytes)."""
+    names = _TXT_FILE.findall((SCENES / f"{name}.txt").read_text(encoding="utf-8"))
+    names += _XML_FILE.findall((SCENES / f"{name}.xml").read_text(encoding="utf-8"))
+    return {n.strip(): (SCENES / n.strip()).read_bytes() for n in dict.fromkeys(names)
+            if not Path(n.strip()).is_absolute() and (SCENES / n.strip()).is_file()}
+
+
+def case_inputs(k: int, case: tuple) -> dict:
+    """Case ``k``: what its task needs, as text and names (its files are shared per page)."""
+    error, size, gname, edit, defines = case
+    name, rect, stride = GRIDS[gname]
+    text = (SCENES / f"{name}.xml").read_text(encoding="utf-8")
+    if edit is not None:
+        new = edit(text)
+        assert new != text, (error, size)
+        text = new
+    return {"k": k, "error": error, "size": size, "grid": gname, "name": name, "rect": rect,
+            "stride": stride, "defines": dict(defines), "xml": text,
+            "txt": (SCENES / f"{name}.txt").read_text(encoding="utf-8")}
+
+
+def run_case(case: dict, files: dict) -> dict:
+    """One injected error compared with the port at compare's defaults, in a private folder
+    (on a worker: nothing read from this repository's scenes/); its table row."""
     import mitsuba as mi
-    mi.set_variant("llvm_ad_rgb")
+    if mi.variant() != "llvm_ad_rgb":
+        mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
     from codermind_harness.compare import Options, compare_scene, prepare
-    rows = []
-    work = Path(tempfile.mkdtemp(prefix="harness_power_"))
-    for k, (error, size, gname, edit, defines) in enumerate(cases()):
-        if args.only and not any(o in error for o in args.only):
-            continue
-        name, rect, stride = GRIDS[gname]
-        folder = work / f"case{k}"
-        folder.mkdir()
-        (folder / f"{name}.txt").symlink_to(SCENES / f"{name}.txt")
-        if (SCENES / "sky").is_dir():
-            (folder / "sky").symlink_to(SCENES / "sky")
-        text = (SCENES / f"{name}.xml").read_text(encoding="utf-8")
-        if edit is not None:
-            new = edit(text)
-            assert new != text, (error, size)
-            text = new
+    name = case["name"]
+    with tempfile.TemporaryDirectory(prefix="harness_power_") as tmp:
+        folder = Path(tmp)
+        for rel, data in files.items():
+            (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+            (folder / rel).write_bytes(data)
+        (folder / f"{name}.txt").write_text(case["txt"], encoding="utf-8")
         xml = folder / f"{name}.xml"
-        xml.write_text(text, encoding="utf-8")
-        opt = Options(rect=rect, stride=stride, out_dir=folder / "out", defines=dict(defines),
-                      progress=False, workers=2)
+        xml.write_text(case["xml"], encoding="utf-8")
+        opt = Options(rect=case["rect"], stride=case["stride"], out_dir=folder / "out",
+                      defines=dict(case["defines"]), progress=False, workers=2)
         t0 = time.perf_counter()
-        rec = compare_scene(prepare(xml, opt), opt, f"{name}-{k}")
-        row = {"error": error, "size": size, "grid": gname, "caught": not rec["passed"],
-               "failures": rec["failures"], "pass_rate": rec["z_test"]["pass_rate"],
-               "flip": rec["flip_mean"], "flip_limit": rec.get("flip_limit"),
-               "pooled": {k2: v["max_abs_z"] for k2, v in (rec.get("pooled") or {}).items()},
-               "exposure_p": (rec["exposure_test"] or {}).get("p"),
-               "seconds": time.perf_counter() - t0}
-        rows.append(row)
-        print(f"{error:18s} {size:20s} {gname:13s} {'CAUGHT' if row['caught'] else 'missed'}"
-              f"  pass {row['pass_rate']:.4f} FLIP {row['flip']:.4f}/{row['flip_limit'] or 0:.4f}"
-              f" pooled {row['pooled']} E p {row['exposure_p']} ({row['seconds']:.0f} s)",
-              flush=True)
+        rec = compare_scene(prepare(xml, opt), opt, f"{name}-{case['k']}")
+        seconds = time.perf_counter() - t0
+    return {"error": case["error"], "size": case["size"], "grid": case["grid"],
+            "caught": not rec["passed"], "failures": rec["failures"],
+            "pass_rate": rec["z_test"]["pass_rate"], "flip": rec["flip_mean"],
+            "flip_limit": rec.get("flip_limit"),
+            "pooled": {k2: v["max_abs_z"] for k2, v in (rec.get("pooled") or {}).items()},
+            "exposure_p": (rec["exposure_test"] or {}).get("p"), "seconds": seconds}
+
+
+def run(args: argparse.Namespace, cluster=None) -> int:
+    chosen = [case_inputs(k, c) for k, c in enumerate(cases())
+              if not args.only or any(o in c[0] for o in args.only)]
+    files = {name: inputs(name) for name in dict.fromkeys(c["name"] for c in chosen)}
+    if cluster is None:
+        rows = (run_case(c, files[c["name"]]) for c in chosen)
+    else:                       # one task per case; each page's files sent once
+        shared = {name: cluster.share(f) for name, f in files.items()}
+        rows = cluster.results(cluster.submit_all(
+            run_case, [(c, shared[c["name"]]) for c in chosen]))
+    done = []
+    for row in rows:        # in case order, as they come back
+        done.append(row)
+        print(f"{row['error']:18s} {row['size']:20s} {row['grid']:13s} "
+              f"{'CAUGHT' if row['caught'] else 'missed'}  pass {row['pass_rate']:.4f} "
+              f"FLIP {row['flip']:.4f}/{row['flip_limit'] or 0:.4f} pooled {row['pooled']} "
+              f"E p {row['exposure_p']} ({row['seconds']:.0f} s)", flush=True)
     out = Path(args.out)
-    out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
-    out.write_text(markdown(rows, " ".join(sys.argv[1:])))
+    write(out.with_suffix(".json"), json.dumps(done, indent=2) + "\n")
+    write(out, markdown(done, " ".join(sys.argv[1:])))
     return 0
+
+
+def write(path: Path, text: str) -> None:
+    """Atomically: a reader never sees half a table."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
 
 
 def which(failures: list[str]) -> str:

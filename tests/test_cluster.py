@@ -210,3 +210,73 @@ def test_a_worker_killed_mid_task_changes_nothing(cluster, page4, local_render):
         assert max(runs) >= 2, runs
         cl.client.wait_for_workers(2, timeout=60)      # the nanny's restart, for later tests
     _same_image(remote, local_render)
+
+
+def _records(folder):
+    """stability.json's records without the times (those of wherever the points ran)."""
+    records = json.loads((folder / "stability.json").read_text())
+    for r in records:
+        r.pop("seconds")
+    return records
+
+
+def test_stability_quick_run_on_the_cluster_gives_the_local_records(cluster, tmp_path):
+    """One point per task: every sweep but blob_neck (the slowest; its second round is in the
+    test below), the same records and figures as the points run one after another here."""
+    from codermind_harness.stability import SWEEPS
+    names = [n for n in SWEEPS if n != "blob_neck"]
+    args = ["stability", "--quick", "--only", *names]
+    here = run_cli(*args, "-o", tmp_path / "here", timeout=300)
+    there = run_cli(*args, "-o", tmp_path / "there", "--cluster", cluster, timeout=300)
+    assert here.returncode == 0 and there.returncode == 0, there.stderr[-2000:]
+    a, b = _records(tmp_path / "here"), _records(tmp_path / "there")
+    assert [r["name"] for r in a] == names and all(r["passed"] and r["checks"] for r in a)
+    assert a == b
+    for name in names:      # the curves and pictures too (the JSON leaves them out)
+        assert (tmp_path / "here" / f"{name}.png").read_bytes() == \
+            (tmp_path / "there" / f"{name}.png").read_bytes(), name
+    tasks = int(there.stderr.split("cluster: ")[-1].split("/")[0])
+    assert tasks > 10 * len(names), there.stderr[-500:]     # points, not sweeps, per task
+
+
+@pytest.fixture
+def plan_sweeps(monkeypatch):
+    """Sweeps made of points computed by math.sqrt (importable on any worker): one in two
+    rounds (the second needs the first's results), one whose point raises."""
+    import math
+    import types
+    from codermind_harness import stability
+
+    def two_rounds(quick):
+        def second(first):
+            def finish(roots):
+                r = stability.SweepResult("two_rounds", "two rounds", "x", "y", "-", roots[0])
+                r.table = [{"first": first, "second": roots}]
+                return r
+            return stability.Plan([sum(first)], math.sqrt, finish)
+        return stability.Plan([1.0, 4.0, 9.0], math.sqrt, second)
+
+    def crashes(quick):
+        return stability.Plan([4.0, -1.0], math.sqrt, lambda roots: None)
+
+    module = types.ModuleType("codermind_harness._fake_plans")
+    module.two_rounds, module.crashes = two_rounds, crashes
+    monkeypatch.setitem(sys.modules, "codermind_harness._fake_plans", module)
+    monkeypatch.setattr(stability, "SWEEPS", {
+        "two_rounds": ("_fake_plans", "two_rounds", "two rounds of points"),
+        "crashes": ("_fake_plans", "crashes", "a point raises")})
+
+
+def test_sweep_plans_in_two_rounds_and_a_crashed_point_on_the_cluster(cluster, plan_sweeps):
+    from codermind_harness import stability
+    from codermind_harness.cluster import open_cluster
+    local = stability.run()
+    with open_cluster(cluster, progress=False) as cl:
+        remote = stability.run()
+        assert cl.submitted == 3 + 1 + 2            # both rounds and the crashing sweep
+    for results in (local, remote):
+        two, crashed = results
+        assert two.table == [{"first": [1.0, 2.0, 3.0], "second": [6.0 ** 0.5]}]
+        assert two.threshold_value == 6.0 ** 0.5 and two.passed
+        assert not crashed.passed
+        assert crashed.checks[0].detail == "ValueError: math domain error"

@@ -273,15 +273,19 @@ class Cluster:
         """Run zero-argument callables (chart points, closures pickled by value) as tasks."""
         return list(self.results(self.submit_all(_call, [(c,) for c in calls])))
 
-    def tile_map(self, job, tiles: list, per_task: int = TILES_PER_TASK) -> Iterator:
-        """``codermind_ref.render``'s ``tile_map``: the job sent once, groups of ``per_task``
-        consecutive tiles per task, the tiles' results yielded in tile order.
-
-        The job travels as the argument of a task that returns it, not by ``scatter``: data
-        scattered to a worker that dies is gone, a task's result is computed again."""
+    def share(self, obj):
+        """A future of ``obj`` for the arguments of many tasks: sent to the cluster once (as
+        the argument of a task that returns it, not by ``scatter``: data scattered to a worker
+        that dies is gone, a task's result is computed again). Release it when done."""
         with warnings.catch_warnings():     # "Sending large graph": the job (cube faces)
             warnings.simplefilter("ignore", UserWarning)
-            shared = self.client.submit(_identity, job, pure=False)
+            return self.client.submit(_identity, obj, pure=False)
+
+    def tile_map(self, job, tiles: list, per_task: int = TILES_PER_TASK) -> Iterator:
+        """``codermind_ref.render``'s ``tile_map``: the job sent once, groups of ``per_task``
+        consecutive tiles per task, the tiles' results yielded in tile order (the job goes
+        through :meth:`share`)."""
+        shared = self.share(job)
         groups = [tiles[i:i + per_task] for i in range(0, len(tiles), per_task)]
         try:
             for group in self.results(self.submit_all(_trace_tiles,

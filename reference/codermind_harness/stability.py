@@ -6,7 +6,7 @@ points: a list of point inputs, a module-level function computing one point (pic
 and results, no shared state: on a cluster each point is one task), and ``assemble``, which
 turns the points' results, in order, into the :class:`SweepResult` on the client (or into a
 further :class:`Plan`, a second round of points that depend on the first). A sweep function
-may also return its ``SweepResult`` directly (one task).
+may also return its ``SweepResult`` directly (computed where it is called: on the client).
 
 A result holds the swept parameter's values, the measured quantity (as curves for the figure),
 the threshold found (a number and a sentence) and the sweep's *never-happen* checks: NaN or Inf
@@ -101,9 +101,7 @@ class SweepResult:
 
 def finite_check(result: SweepResult, what: str, *arrays) -> bool:
     """Record a check that every value of ``arrays`` is finite."""
-    bad = sum(int(np.size(a) - np.isfinite(np.asarray(a, dtype=np.float64)).sum()) for a in arrays)
-    total = sum(int(np.size(a)) for a in arrays)
-    return result.check(what, bad == 0, f"{bad} of {total} values non-finite")
+    return finite_check_counts(result, what, [finite_counts(*arrays)])
 
 
 def first_crossing(xs, ys, limit: float) -> float | None:

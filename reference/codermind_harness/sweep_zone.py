@@ -127,7 +127,8 @@ def _camera_point(p: tuple) -> dict:
     ref = [zone_exact.first_hit(o[i], d[i], CENTERS, RADIUS, t_min=0.01) for i in range(len(d))]
     rel = np.array([float(abs((Decimal(float(t[i])) - ref[i]) / ref[i])) if hit[i] and
                     ref[i] is not None else np.nan for i in range(len(d))])
-    return {"t": t, "hit": hit, "rel": rel, "disagree": hit != np.array([x is not None for x in ref])}
+    return {"t": t, "hit": hit, "rel": rel,
+            "disagree": hit != np.array([x is not None for x in ref])}
 
 
 def _grazing_point(p: tuple) -> dict:
@@ -166,8 +167,8 @@ def zone_grazing(quick: bool = False) -> Plan:
     cam /= np.linalg.norm(cam, axis=1, keepdims=True)
     points += [("camera", cam[i:i + CAMERA_RAYS]) for i in range(0, len(cam), CAMERA_RAYS)]
     k = len(depths)
-    return Plan(points, _grazing_point,
-                lambda res: _grazing(depths, m, len(keep), w, h, res[:k], res[k:2 * k], res[2 * k:]))
+    return Plan(points, _grazing_point, lambda res: _grazing(
+        depths, m, len(keep), w, h, res[:k], res[k:2 * k], res[2 * k:]))
 
 
 def _grazing(depths, m, m_b, w, h, lone, blob, camera) -> SweepResult:
