@@ -212,31 +212,39 @@ def test_a_worker_killed_mid_task_changes_nothing(cluster, page4, local_render):
     _same_image(remote, local_render)
 
 
-def _records(folder):
+#: the sweeps of the cluster test: Mitsuba on the workers (with a variant switch in fresnel),
+#: random draws as generator states (perlin) and drawn on the client (zone_scale), renders
+#: of the port; the slow ones (blob_neck, blinnphong's chi2) are left out
+QUICK_SWEEPS = ["perlin_float32", "fresnel", "thin_lens", "zone_scale", "tone_curve",
+                "auto_exposure"]
+
+
+def _records(text: str) -> list[dict]:
     """stability.json's records without the times (those of wherever the points ran)."""
-    records = json.loads((folder / "stability.json").read_text())
+    records = json.loads(text)
     for r in records:
         r.pop("seconds")
     return records
 
 
 def test_stability_quick_run_on_the_cluster_gives_the_local_records(cluster, tmp_path):
-    """One point per task: every sweep but blob_neck (the slowest; its second round is in the
-    test below), the same records and figures as the points run one after another here."""
-    from codermind_harness.stability import SWEEPS
-    names = [n for n in SWEEPS if n != "blob_neck"]
-    args = ["stability", "--quick", "--only", *names]
-    here = run_cli(*args, "-o", tmp_path / "here", timeout=300)
-    there = run_cli(*args, "-o", tmp_path / "there", "--cluster", cluster, timeout=300)
-    assert here.returncode == 0 and there.returncode == 0, there.stderr[-2000:]
-    a, b = _records(tmp_path / "here"), _records(tmp_path / "there")
-    assert [r["name"] for r in a] == names and all(r["passed"] and r["checks"] for r in a)
+    """One point per task: the records and figures of the points run one after another here
+    (in this process) equal those of `codermind stability --cluster`."""
+    from codermind_harness import stability
+    local = stability.run(QUICK_SWEEPS, quick=True)
+    stability.write_report(local, tmp_path / "here", "test")
+    there = run_cli("stability", "--quick", "--only", *QUICK_SWEEPS, "-o", tmp_path / "there",
+                    "--cluster", cluster, timeout=300)
+    assert there.returncode == 0, there.stderr[-2000:]
+    a = _records(stability.to_json(local))
+    b = _records((tmp_path / "there" / "stability.json").read_text())
+    assert [r["name"] for r in a] == QUICK_SWEEPS and all(r["passed"] and r["checks"] for r in a)
     assert a == b
-    for name in names:      # the curves and pictures too (the JSON leaves them out)
+    for name in QUICK_SWEEPS:   # the curves and pictures too (the JSON leaves them out)
         assert (tmp_path / "here" / f"{name}.png").read_bytes() == \
             (tmp_path / "there" / f"{name}.png").read_bytes(), name
     tasks = int(there.stderr.split("cluster: ")[-1].split("/")[0])
-    assert tasks > 10 * len(names), there.stderr[-500:]     # points, not sweeps, per task
+    assert tasks > 10 * len(QUICK_SWEEPS), there.stderr[-500:]  # points, not sweeps, per task
 
 
 @pytest.fixture
