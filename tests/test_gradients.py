@@ -40,6 +40,12 @@ SCENES = {
         "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
     "marble": lambda mi: _scene(mi, _tex("marble", octaves=3, color0={
         "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
+    # the frequencies at a frequency the 12x12 pixels resolve: at 2 per unit the
+    # derivative of the mean pixel is the sum of many aliased bits of either sign, and
+    # differs by 2x between pixel-jitter seeds
+    "turbulence_f": lambda mi: _scene(mi, _tex("turbulence", octaves=3, frequency=0.5,
+                                               color0={"type": "rgb", "value": 0.6},
+                                               color1={"type": "rgb", "value": 0.1})),
     "perlin": lambda mi: _scene(mi, _tex("perlin", scale=0.4, offset=0.5, frequency=0.4)),
     "noisebump": lambda mi: _scene(mi, {"type": "noisebump", "bumplevel": 0.4,
                                         "frequency": 2.0, "nested": {
@@ -62,7 +68,12 @@ CASES = [
     ("marble", "obj.bsdf.reflectance.color1.value"),
     ("perlin", "obj.bsdf.reflectance.scale"),
     ("perlin", "obj.bsdf.reflectance.offset"),
+    ("perlin", "obj.bsdf.reflectance.frequency"),
+    ("turbulence_f", "obj.bsdf.reflectance.frequency"),
+    ("marble", "obj.bsdf.reflectance.frequency"),
+    ("marble", "obj.bsdf.reflectance.stripe_frequency"),
     ("noisebump", "obj.bsdf.bumplevel"),
+    ("noisebump", "obj.bsdf.frequency"),
     ("tutorial", "obj.bsdf.diffuse.value"),
     ("tutorial", "obj.bsdf.specular.value"),
     ("tutorial", "obj.bsdf.power"),

@@ -8,7 +8,7 @@ import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
 from codermind.exposed import exposed, scalar, take_float
-from codermind.params import FLOAT32_MAX, flag, number
+from codermind.params import FLOAT32_MAX, flag, read_float
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -147,13 +147,8 @@ class CubeMap(mi.Emitter):
                    "sampling_weight: light samples that pick it are wasted")
         self.srgb = flag(props, "cubemap", "srgb", False)
         self.exposed = flag(props, "cubemap", "exposed", False)
-        self.exposure = number(props, "cubemap", "exposure", 1.0)
-        if not 0 < self.exposure < np.inf:
-            raise ValueError(f"cubemap: 'exposure' must be finite and > 0, got "
-                             f"{self.exposure:g}")
-        self.scale = number(props, "cubemap", "scale", 1.0)
-        if not np.isfinite(self.scale):
-            raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
+        self.exposure = read_float(props, "cubemap", "exposure", 1.0, lo=0.0, open_lo=True)
+        self.scale = read_float(props, "cubemap", "scale", 1.0)
         if not abs(self.scale / self.exposure) <= FLOAT32_MAX:
             raise ValueError(f"cubemap: 'scale' / 'exposure' = {self.scale / self.exposure:g} "
                              f"is beyond float32")

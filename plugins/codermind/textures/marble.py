@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import kernel_value
 from ..params import positive_float
 from ._solid import TurbulenceBase
 
@@ -92,7 +93,7 @@ class MarbleTexture(TurbulenceBase):
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         t = self.turbulence(p)
-        phase = dr.clip(dr.fma(p.x + p.y, self.stripe_frequency, t), -PHASE_LIMIT, PHASE_LIMIT)
+        phase = dr.clip(dr.fma(p.x + p.y, kernel_value(self, "stripe_frequency"), t), -PHASE_LIMIT, PHASE_LIMIT)
         return dr.fma(0.5, dr.sin(phase), 0.5)
 
     def mean_weight(self) -> float:
