@@ -126,6 +126,7 @@ CASES = [
     ("cubemap", "env.data", lambda mi: mi.TensorXf(np.full((6, 4, 4, 3), 0.2, np.float32))),
     ("cubemap", "env.scale", lambda mi: mi.Float(3.0)),
     ("cubemap", "env.exposure", lambda mi: mi.Float(3.0)),
+    ("cubemap", "env.to_world", lambda mi: mi.Transform4f().rotate([0, 1, 0], 90)),
     ("tutorialpoint", "light.position", lambda mi: mi.Point3f(-2, 3, 4)),
     ("tutorialpoint", "light.intensity.value", lambda mi: mi.Float(5.0)),
     ("blob", "obj.centers", lambda mi: mi.Float([-0.3, 0.2, 0, 0.9, 0, 0, 0, -0.8, 0])),
