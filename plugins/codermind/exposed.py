@@ -5,9 +5,11 @@ The plugins keep most numbers as Python floats (their kernels test some of them 
 Python, e.g. ``if self.aperture == 0``). ``mi.traverse`` needs a Mitsuba object it can
 write into, so :func:`exposed` hands out one ``mi.Float`` per parameter (made once,
 from the current value) and :func:`take_float` reads it back after an update, checks it
-like the plugin's constructor does, and stores it on the plugin: as a Python float for
-a non-differentiable parameter, or as the ``mi.Float`` itself (gradients included) for
-one that the plugin's kernels use only in Dr.Jit arithmetic.
+with the constructor's own check (:func:`codermind.params.check_float`, so the message
+is the same), and stores it on the plugin: as a Python float, or as the ``mi.Float``
+itself (gradients included) for one that the plugin uses only in Dr.Jit arithmetic. A
+differentiable parameter that the plugin also tests in Python keeps the float as its
+attribute and its kernels read the ``mi.Float`` through :func:`kernel_value`.
 """
 
 from __future__ import annotations
