@@ -196,6 +196,39 @@ def synthetic_faces(mi, size=6, seed=21):
     return faces
 
 
+def test_to_world_through_traverse_equals_the_scene_one(llvm):
+    """``to_world`` written through ``mi.traverse`` turns the cube as the same
+    ``to_world`` given in the scene does: the same lookups, sampled directions, pdfs and
+    weights (to float rounding), so the same renders; a scaling matrix is rejected in one
+    line. Evidence [ours]: the constructor's path against the update's."""
+    mi = llvm
+    rotation = mi.ScalarTransform4f().rotate([2 / 3, 2 / 3, 1 / 3], 33)
+    faces = synthetic_faces(mi)
+    given = mi.load_dict({"type": "cubemap", **faces, "to_world": rotation})
+    updated = mi.load_dict({"type": "cubemap", **faces})
+    params = mi.traverse(updated)
+    np.testing.assert_allclose(np.array(params["to_world"].matrix)[..., 0], np.eye(4))
+    params["to_world"] = mi.Transform4f(rotation.matrix)
+    params.update()
+    rng = np.random.default_rng(8)
+    d = probe_directions(rng)[:500]
+    np.testing.assert_allclose(plugin_lookup(mi, updated, d), plugin_lookup(mi, given, d),
+                               rtol=1e-5, atol=1e-6)
+    it = mi.Interaction3f()
+    it.p = mi.Point3f(*rng.normal(size=(3, 1000)))
+    sample = mi.Point2f(*rng.random((2, 1000)))
+    (ds_u, w_u), (ds_g, w_g) = (e.sample_direction(it, sample) for e in (updated, given))
+    np.testing.assert_allclose(np.array(ds_u.d), np.array(ds_g.d), atol=1e-5)
+    np.testing.assert_allclose(np.array(ds_u.pdf), np.array(ds_g.pdf), rtol=1e-4)
+    np.testing.assert_allclose(np.array(w_u), np.array(w_g), rtol=1e-4, atol=1e-6)
+    plain = plugin_lookup(mi, mi.load_dict({"type": "cubemap", **faces}), d)
+    assert np.abs(plugin_lookup(mi, updated, d) - plain).max() > 0.05
+    params["to_world"] = mi.Transform4f().scale(2.0)
+    with pytest.raises(ValueError, match=r"^cubemap: 'to_world' must be a rotation or "
+                                         r"reflection \(no scale\)$"):
+        params.update()
+
+
 def test_chi2_light_sampling(llvm):
     mi = llvm
     from mitsuba.chi2 import ChiSquareTest, EmitterAdapter, SphericalDomain

@@ -126,6 +126,7 @@ CASES = [
     ("cubemap", "env.data", lambda mi: mi.TensorXf(np.full((6, 4, 4, 3), 0.2, np.float32))),
     ("cubemap", "env.scale", lambda mi: mi.Float(3.0)),
     ("cubemap", "env.exposure", lambda mi: mi.Float(3.0)),
+    ("cubemap", "env.to_world", lambda mi: mi.Transform4f().rotate([0, 1, 0], 90)),
     ("tutorialpoint", "light.position", lambda mi: mi.Point3f(-2, 3, 4)),
     ("tutorialpoint", "light.intensity.value", lambda mi: mi.Float(5.0)),
     ("blob", "obj.centers", lambda mi: mi.Float([-0.3, 0.2, 0, 0.9, 0, 0, 0, -0.8, 0])),
@@ -197,13 +198,27 @@ def test_changing_a_parameter_changes_the_render(llvm, name, key, value):
     np.testing.assert_allclose(_render(mi, scene), before, rtol=0, atol=1e-5)
 
 
-def test_invalid_value_is_rejected_in_one_line(llvm):
+@pytest.mark.parametrize("key,value,message", [
+    ("reflection", 1.5, "tutorial: 'reflection' must be finite in float32 and in [0, 1], "
+                        "got 1.5"),
+    ("power", -1.0, "tutorial: 'power' must be finite in float32 and >= 0, got -1"),
+    ("density", float("nan"), "tutorial: 'density' must be finite in float32 and >= 0, "
+                              "got nan"),
+])
+def test_invalid_value_is_rejected_in_one_line(llvm, key, value, message):
+    """The same one-line message for a bad value in the scene and through mi.traverse
+    (both go through ``params.check_float``)."""
+    import re
     mi = llvm
-    scene = mi.load_dict(SCENES["tutorial"](mi))
+    scene_dict = SCENES["tutorial"](mi)
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict({**scene_dict, "obj": {**scene_dict["obj"], "bsdf": {
+            **scene_dict["obj"]["bsdf"], key: value}}})
+    assert message in str(error.value)
+    scene = mi.load_dict(scene_dict)
     params = mi.traverse(scene)
-    params["obj.bsdf.reflection"] = mi.Float(1.5)
-    with pytest.raises(ValueError, match=r"^tutorial: 'reflection' must be finite and >= 0 "
-                                         r"and <= 1, got 1\.5$"):
+    params[f"obj.bsdf.{key}"] = mi.Float(value)
+    with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
         params.update()
 
 

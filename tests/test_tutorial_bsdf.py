@@ -344,7 +344,7 @@ def test_bad_parameter_through_cli(tmp_path):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, result.stderr
     assert "bad.xml" in lines[0] and "line 3" in lines[0]
-    assert "tutorial: 'reflection' must be finite and in [0, 1], got 2" in lines[0]
+    assert "tutorial: 'reflection' must be finite in float32 and in [0, 1], got 2" in lines[0]
     assert "Traceback" not in lines[0]
 
 

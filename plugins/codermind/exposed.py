@@ -5,19 +5,19 @@ The plugins keep most numbers as Python floats (their kernels test some of them 
 Python, e.g. ``if self.aperture == 0``). ``mi.traverse`` needs a Mitsuba object it can
 write into, so :func:`exposed` hands out one ``mi.Float`` per parameter (made once,
 from the current value) and :func:`take_float` reads it back after an update, checks it
-like the plugin's constructor does, and stores it on the plugin: as a Python float for
-a non-differentiable parameter, or as the ``mi.Float`` itself (gradients included) for
-one that the plugin's kernels use only in Dr.Jit arithmetic.
+with the constructor's own check (:func:`codermind.params.check_float`, so the message
+is the same), and stores it on the plugin: as a Python float, or as the ``mi.Float``
+itself (gradients included) for one that the plugin uses only in Dr.Jit arithmetic. A
+differentiable parameter that the plugin also tests in Python keeps the float as its
+attribute and its kernels read the ``mi.Float`` through :func:`kernel_value`.
 """
 
 from __future__ import annotations
 
-import math
-
 import drjit as dr
 import mitsuba as mi
 
-from .params import FLOAT32_MAX
+from .params import check_float
 
 
 def scalar(value) -> float:
@@ -39,19 +39,21 @@ def exposed(plugin_object, name: str, make=None):
     return store[name]
 
 
+def kernel_value(plugin_object, name: str):
+    """Parameter ``name`` for a plugin's Dr.Jit kernels: the ``mi.Float`` that
+    ``mi.traverse`` writes (gradients included) once it has exposed the parameter, else the
+    attribute (a Python float, which stays the plugin's copy for tests in Python)."""
+    return plugin_object.__dict__.get("_exposed", {}).get(name, getattr(plugin_object, name))
+
+
 def take_float(plugin_object, plugin: str, name: str, lo: float | None = None,
                hi: float | None = None, open_lo: bool = False,
                keep_array: bool = False) -> float:
-    """Check the exposed value of ``name`` (finite in float32, within [lo, hi], or
+    """Check the exposed value of ``name`` with the scene reader's own check
+    (:func:`codermind.params.check_float`: finite in float32, within [lo, hi], or
     (lo, hi] with ``open_lo``) and store it on the plugin; returns it as a float."""
     value = exposed(plugin_object, name)
-    v = scalar(value)
-    low_ok = lo is None or (v > lo if open_lo else v >= lo)
-    if not (math.isfinite(v) and abs(v) <= FLOAT32_MAX and low_ok and (hi is None or v <= hi)):
-        bound = "" if lo is None else (f" > {lo:g}" if open_lo else f" >= {lo:g}")
-        bound += "" if hi is None else f"{' and' if bound else ''} <= {hi:g}"
-        raise ValueError(f"{plugin}: '{name}' must be finite{' and' if bound else ''}{bound}, "
-                         f"got {v:g}")
+    v = check_float(plugin, name, scalar(value), lo, hi, open_lo)
     setattr(plugin_object, name, value if keep_array else v)
     return v
 

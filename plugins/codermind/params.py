@@ -51,19 +51,40 @@ def loose_number(props: mi.Properties, plugin: str, name: str, default=None):
 
 # -- bounded numbers, textures, colours (BSDFs, textures) ------------------------------------
 
-def read_float(props: mi.Properties, plugin: str, name: str, default: float,
-               lo: float | None = None, hi: float | None = None) -> float:
-    """A float in [lo, hi], finite in float32 (either bound optional)."""
-    value = number(props, plugin, name, default)
-    if not math.isfinite(value) or (lo is not None and value < lo) or \
-            (hi is not None and value > hi):
-        bounds = (f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}") \
-            if lo is not None else f"<= {hi:g}"
-        raise ValueError(f"{plugin}: '{name}' must be finite and {bounds}, got {value:g}")
-    if abs(value) > FLOAT32_MAX:
-        raise ValueError(f"{plugin}: '{name}' must be finite in float32 (at most "
-                         f"{FLOAT32_MAX:.4g}), got {value:g}")
+def bounds_text(lo: float | None = None, hi: float | None = None,
+                open_lo: bool = False) -> str:
+    """The bounds of :func:`check_float` in words: ``in [0, 1]``, ``> 0``, ``>= 0``, ..."""
+    if lo is not None and hi is not None:
+        return f"in {'(' if open_lo else '['}{lo:g}, {hi:g}]"
+    if lo is not None:
+        return f"{'>' if open_lo else '>='} {lo:g}"
+    return "" if hi is None else f"<= {hi:g}"
+
+
+def check_float(plugin: str, name: str, value: float, lo: float | None = None,
+                hi: float | None = None, open_lo: bool = False) -> float:
+    """The one bounds check of a float parameter, whether it comes from the scene
+    (:func:`read_float`, :func:`positive_float`) or from ``mi.traverse``
+    (:func:`codermind.exposed.take_float`): finite in float32 (the plugins compute in
+    float32) and in [lo, hi] ((lo, hi] with ``open_lo``; either bound optional). Else a
+    ValueError, one line: ``<plugin>: '<name>' must be finite in float32 and in [0, 1],
+    got 2``."""
+    value = float(value)
+    ok = math.isfinite(value) and abs(value) <= FLOAT32_MAX and \
+        (lo is None or (value > lo if open_lo else value >= lo)) and \
+        (hi is None or value <= hi)
+    if not ok:
+        bounds = bounds_text(lo, hi, open_lo)
+        raise ValueError(f"{plugin}: '{name}' must be finite in float32"
+                         f"{' and ' + bounds if bounds else ''}, got {value:g}")
     return value
+
+
+def read_float(props: mi.Properties, plugin: str, name: str, default: float,
+               lo: float | None = None, hi: float | None = None,
+               open_lo: bool = False) -> float:
+    """A number checked by :func:`check_float`; ``default`` when absent."""
+    return check_float(plugin, name, number(props, plugin, name, default), lo, hi, open_lo)
 
 
 def uniform_rgb(texture: mi.Texture) -> list[float] | None:
@@ -97,11 +118,8 @@ def read_texture(props: mi.Properties, plugin: str, name: str, default: float,
 
 
 def positive_float(props: mi.Properties, plugin: str, name: str, default: float) -> float:
-    value = number(props, plugin, name, default)
-    if not 0 < value <= FLOAT32_MAX:
-        raise ValueError(f"{plugin}: '{name}' must be a finite number > 0 (in float32), got "
-                         f"{value:g}")
-    return value
+    """A number > 0, finite in float32 (:func:`check_float`)."""
+    return read_float(props, plugin, name, default, lo=0.0, open_lo=True)
 
 
 def finite_color(props: mi.Properties, plugin: str, name: str, default: float) -> mi.Texture:

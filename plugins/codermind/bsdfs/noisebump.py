@@ -3,7 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..exposed import exposed, scalar_matrix, take_float
+from ..exposed import exposed, kernel_value, scalar_matrix, take_float
 from ..textures import _noise
 from ..params import flag, read_float
 
@@ -44,7 +44,7 @@ class NoiseBumpBSDF(mi.BSDF):
 
      * - (traverse)
        -
-       - ``mi.traverse`` exposes ``bumplevel`` (differentiable), ``frequency`` and
+       - ``mi.traverse`` exposes ``bumplevel`` and ``frequency`` (differentiable),
          ``to_world`` (non-differentiable) and the nested BSDF's parameters.
 
      * - leak_check
@@ -102,9 +102,7 @@ class NoiseBumpBSDF(mi.BSDF):
             raise ValueError(f"{name}: needs exactly one nested BSDF, got {len(nested)}")
         self.nested = nested[0]
         self.bumplevel = read_float(props, name, "bumplevel", 0.1, lo=0.0, hi=1.0)
-        self.frequency = read_float(props, name, "frequency", 0.1, lo=0.0)
-        if self.frequency == 0:
-            raise ValueError(f"{name}: 'frequency' must be > 0, got 0")
+        self.frequency = read_float(props, name, "frequency", 0.1, lo=0.0, open_lo=True)
         self.leak_check = flag(props, name, "leak_check", False)
         self.gradient = _noise.read_gradient(props, name)
         self.identity = "to_world" not in props
@@ -117,7 +115,8 @@ class NoiseBumpBSDF(mi.BSDF):
     def _perturbed(self, si: mi.SurfaceInteraction3f, active: mi.Bool):
         """The perturbed interaction (frame and wi) for the nested BSDF."""
         p = si.p if self.identity else self.to_local @ si.p
-        x, y, z = p.x * self.frequency, p.y * self.frequency, p.z * self.frequency
+        f = kernel_value(self, "frequency")
+        x, y, z = p.x * f, p.y * f, p.z * f
         bump = _noise.rotated_noise(x, y, z, self.gradient)
         frame = si.sh_frame
         wi = frame.to_world(si.wi)
@@ -217,8 +216,8 @@ class NoiseBumpBSDF(mi.BSDF):
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("nested_bsdf", self.nested, mi.ParamFlags.Differentiable)
         callback.put("bumplevel", exposed(self, "bumplevel"), mi.ParamFlags.Differentiable)
+        callback.put("frequency", exposed(self, "frequency"), mi.ParamFlags.Differentiable)
         nd = mi.ParamFlags.NonDifferentiable
-        callback.put("frequency", exposed(self, "frequency"), nd)
         callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
             mi.ScalarMatrix4f(1.0) if self.identity else self.to_local.inverse().matrix)), nd)
 

@@ -3,7 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..exposed import exposed, take_float
+from ..exposed import exposed, kernel_value, take_float
 from ..params import FLOAT32_MIN_NORMAL, read_float, read_texture
 
 PAGES = (1, 2, 4)
@@ -54,11 +54,20 @@ class TutorialBSDF(mi.BSDF):
        - Which tutorial program's transport the material follows: 1 or 2 (mirror model)
          or 4 (Fresnel roulette) (Default: 4). Page 1 is page 2 with ``specular`` 0.
 
-    ``mi.traverse`` exposes ``diffuse``, ``specular`` and ``power`` (differentiable; not
-    at ``power`` = 0, where the lobe switches to a constant) and ``reflection``,
-    ``refraction``, ``density`` (page 4 only for the last two; non-differentiable: they
-    also set the probabilities of the sampled mirror and refraction events, whose
-    derivatives ``prb`` does not take).
+    ``mi.traverse`` exposes ``diffuse``, ``specular``, ``power``, ``reflection``,
+    ``refraction`` and ``density`` (page 4 only for the last two), all differentiable
+    (``power`` not at 0, where the lobe switches to a constant; ``density`` not at 0, the
+    metal, nor where ``reflection`` = ``refraction`` = 0). The weights and the density set
+    the lighting factor :math:`1 - R_f - T_r` of ``eval`` and both the weight and the
+    probability of the sampled mirror and refraction events; the roulette's choice has no
+    derivative, so ``sample`` returns the weight times :math:`p / \mathrm{detach}(p)` for
+    the event's probability :math:`p` (value unchanged; its derivative, averaged over the
+    roulette, is that of the expected weight :math:`\sum p\,w`), and the refracted
+    direction follows ``density``. Checked against finite differences of the expectation
+    (tests/test_gradients.py). An integrator sees these derivatives if it differentiates
+    ``sample``'s weight (Dr.Jit AD through :monosp:`path` with evaluated loops does);
+    :monosp:`prb` takes the derivatives of the indirect light from ``eval`` at the sampled
+    direction instead, which for a delta event here is the lighting term, not the event.
 
     The material of the Codermind ray-tracing tutorial, written so that Mitsuba's
     built-in :monosp:`path` integrator computes exactly the tutorial's light transport
@@ -199,8 +208,9 @@ class TutorialBSDF(mi.BSDF):
         """Spec 2.7, step 1-2: reflectance R, cos_t and n1/n2."""
         if self.metal:
             return mi.Float(1.0), mi.Float(1.0), mi.Float(1.0)
-        n1 = dr.select(inside, self.density, 1.0)
-        n2 = dr.select(inside, 1.0, self.density)
+        density = kernel_value(self, "density")
+        n1 = dr.select(inside, density, 1.0)
+        n2 = dr.select(inside, 1.0, density)
         eta = n1 / n2
         sin2_t = dr.square(eta) * dr.maximum(1.0 - dr.square(cos_i), 0.0)
         normal = cos_i >= 0.999
@@ -220,7 +230,8 @@ class TutorialBSDF(mi.BSDF):
         inside = self._inside(si)
         cos_i = dr.abs(mi.Frame3f.cos_theta(si.wi))
         r, cos_t, eta = self._fresnel(cos_i, inside)
-        return inside, self.reflection * r, self.refraction * (1.0 - r), cos_i, cos_t, eta
+        return (inside, kernel_value(self, "reflection") * r,
+                kernel_value(self, "refraction") * (1.0 - r), cos_i, cos_t, eta)
 
     def _colours(self, ctx, si, active):
         """The ``diffuse`` and ``specular`` colours at the hit (None where ``ctx`` disables
@@ -295,7 +306,7 @@ class TutorialBSDF(mi.BSDF):
             bs.pdf = dr.select(ok, 1.0, 0.0)
             bs.sampled_type = mi.UInt32(int(mi.BSDFFlags.DeltaReflection))
             bs.sampled_component = mi.UInt32(2)
-            return bs, mi.Spectrum(self.reflection) & ok
+            return bs, mi.Spectrum(kernel_value(self, "reflection")) & ok
 
         inside, rf, tr, cos_i, cos_t, eta = events
         if not can_reflect:
@@ -318,11 +329,18 @@ class TutorialBSDF(mi.BSDF):
         # the refracted direction only where refraction happens (under TIR with a huge
         # density it overflows to NaN; an invalid sample gets the finite mirror direction)
         bs.wo = dr.select(refract, refracted, mirror)
-        bs.pdf = dr.select(ok, dr.select(reflect, rf, tr) / dr.select(ok, scale, 1.0), 0.0)
+        prob = dr.select(ok, dr.select(reflect, rf, tr) / dr.select(ok, scale, 1.0), 0.0)
+        bs.pdf = dr.detach(prob)
         bs.sampled_type = dr.select(reflect, mi.UInt32(int(mi.BSDFFlags.DeltaReflection)),
                                     mi.UInt32(int(mi.BSDFFlags.DeltaTransmission)))
         bs.sampled_component = dr.select(reflect, mi.UInt32(2), mi.UInt32(3))
-        weight = dr.select(reflect, self.reflection, self.refraction)
+        weight = dr.select(reflect, kernel_value(self, "reflection"),
+                           kernel_value(self, "refraction"))
+        # The event's probability depends on the parameters too: weight / 1 = weight *
+        # prob / detach(prob) has the same value, and its derivative (in expectation over
+        # the roulette) is that of the expected weight, sum_events prob * weight (the
+        # standard estimator of a derivative through a discrete choice, unbiased).
+        weight = weight * (prob / dr.select(ok, dr.detach(prob), 1.0))
         return bs, mi.Spectrum(weight) & ok
 
     #: Per-hit quantities the ``tutorial`` integrator's strict mode reads through
@@ -364,7 +382,7 @@ class TutorialBSDF(mi.BSDF):
     def _power(self):
         """The Blinn exponent for the kernels: the traversed ``mi.Float`` (gradients
         included) once ``mi.traverse`` has exposed it, else the float."""
-        return self.__dict__.get("_exposed", {}).get("power", self.power)
+        return kernel_value(self, "power")
 
     def _scalar_names(self) -> tuple[str, ...]:
         return ("power", "reflection", "refraction", "density") if self.page == 4 else \
@@ -373,13 +391,10 @@ class TutorialBSDF(mi.BSDF):
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("diffuse", self.diffuse, mi.ParamFlags.Differentiable)
         callback.put("specular", self.specular, mi.ParamFlags.Differentiable)
-        # power: differentiable (the kernels use the traversed mi.Float, see _power;
-        # the Python test power == 0 stays on the float). The weights and the density also
-        # set the probabilities of the sampled events, whose derivatives prb does not take
-        # (the tutorial's event weights are not value / pdf): non-differentiable.
+        # all differentiable: the kernels use the traversed mi.Float (kernel_value); the
+        # Python tests (power == 0, the metal case) stay on the floats
         for name in self._scalar_names():
-            callback.put(name, exposed(self, name), mi.ParamFlags.Differentiable
-                         if name == "power" else mi.ParamFlags.NonDifferentiable)
+            callback.put(name, exposed(self, name), mi.ParamFlags.Differentiable)
 
     def parameters_changed(self, keys: list[str]) -> None:
         name = self.plugin

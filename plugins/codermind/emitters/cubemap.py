@@ -7,8 +7,8 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
-from codermind.exposed import exposed, scalar, take_float
-from codermind.params import FLOAT32_MAX, flag, number
+from codermind.exposed import exposed, scalar, scalar_matrix, take_float
+from codermind.params import FLOAT32_MAX, flag, read_float
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -108,7 +108,9 @@ class CubeMap(mi.Emitter):
     (6, :math:`S_v`, :math:`S_u`, 3) in the order of FACES (up, down, right, left,
     forward, backward), rows from :math:`v = 0`, before the decodes; and ``scale``, both
     differentiable (the sampling distribution is rebuilt, detached, when ``data``
-    changes), and ``exposure`` (non-differentiable). JIT variants only.
+    changes); ``exposure`` and ``to_world`` (non-differentiable; a new ``to_world`` must
+    be a rotation or reflection too, as for the built-in :monosp:`envmap` it turns the
+    whole map, importance sampling included). JIT variants only.
 
     RGB and monochromatic variants only.
 
@@ -147,19 +149,13 @@ class CubeMap(mi.Emitter):
                    "sampling_weight: light samples that pick it are wasted")
         self.srgb = flag(props, "cubemap", "srgb", False)
         self.exposed = flag(props, "cubemap", "exposed", False)
-        self.exposure = number(props, "cubemap", "exposure", 1.0)
-        if not 0 < self.exposure < np.inf:
-            raise ValueError(f"cubemap: 'exposure' must be finite and > 0, got "
-                             f"{self.exposure:g}")
-        self.scale = number(props, "cubemap", "scale", 1.0)
-        if not np.isfinite(self.scale):
-            raise ValueError(f"cubemap: 'scale' must be finite, got {self.scale:g}")
+        self.exposure = read_float(props, "cubemap", "exposure", 1.0, lo=0.0, open_lo=True)
+        self.scale = read_float(props, "cubemap", "scale", 1.0)
         if not abs(self.scale / self.exposure) <= FLOAT32_MAX:
             raise ValueError(f"cubemap: 'scale' / 'exposure' = {self.scale / self.exposure:g} "
                              f"is beyond float32")
-        linear = np.array(self.world_transform().matrix, dtype=np.float64).reshape(4, 4)[:3, :3]
-        if not np.allclose(linear.T @ linear, np.eye(3), atol=1e-4):
-            raise ValueError("cubemap: 'to_world' must be a rotation or reflection (no scale)")
+        self._set_orientation(np.array(self.world_transform().matrix,
+                                       dtype=np.float64).reshape(4, 4))
 
         faces = load_faces(props)                     # (6, H, W, 3), row 0 = v = 0
         self.names = [name for name, _ in faces]
@@ -222,8 +218,21 @@ class CubeMap(mi.Emitter):
             return mi.Spectrum(c.x)
         return mi.Spectrum(c)
 
+    def _set_orientation(self, matrix: np.ndarray) -> None:
+        """The cube's orientation from a 4x4 ``to_world`` (its translation is ignored):
+        ``to_env`` takes local directions to the world, ``to_local`` back."""
+        linear = matrix[:3, :3]
+        if not (np.isfinite(linear).all() and
+                np.allclose(linear.T @ linear, np.eye(3), atol=1e-4)):
+            raise ValueError("cubemap: 'to_world' must be a rotation or reflection (no scale)")
+        rotation = np.eye(4)
+        rotation[:3, :3] = linear
+        self.orientation = rotation
+        self.to_env = mi.Transform4f(mi.ScalarMatrix4f(rotation))
+        self.to_local = mi.Transform4f(mi.ScalarMatrix4f(np.ascontiguousarray(rotation.T)))
+
     def _to_local(self, d: mi.Vector3f) -> mi.Vector3f:
-        return self.world_transform().inverse() @ mi.Vector3f(d)
+        return self.to_local @ mi.Vector3f(d)
 
     def eval(self, si: mi.SurfaceInteraction3f, active: mi.Bool = True) -> mi.Spectrum:
         return self._spectrum(self.lookup(self._to_local(-si.wi), active)) & active
@@ -290,7 +299,7 @@ class CubeMap(mi.Emitter):
             ds.pdf = mi.Float(0.0)
             return ds, mi.Spectrum(0.0)
         local, pdf = self._sample_local(sample, active)
-        d = self.world_transform() @ local
+        d = self.to_env @ local
         radius = dr.maximum(self.bsphere_radius, dr.norm(it.p - self.bsphere_center))
         ds.dist = 2.0 * radius
         ds.p = it.p + d * ds.dist
@@ -318,7 +327,7 @@ class CubeMap(mi.Emitter):
             return mi.Ray3f(mi.Point3f(0.0), mi.Vector3f(0.0, 0.0, 1.0), time,
                             _no_wavelengths()), mi.Spectrum(0.0)
         local, pdf = self._sample_local(sample3, active)
-        to_env = self.world_transform() @ local
+        to_env = self.to_env @ local
         offset = mi.warp.square_to_uniform_disk_concentric(sample2)
         perpendicular = mi.Frame3f(to_env).to_world(mi.Vector3f(offset.x, offset.y, 0.0))
         origin = self.bsphere_center + (perpendicular + to_env) * self.bsphere_radius
@@ -371,6 +380,8 @@ class CubeMap(mi.Emitter):
                      mi.ParamFlags.Differentiable | mi.ParamFlags.Discontinuous)
         callback.put("scale", exposed(self, "scale"), mi.ParamFlags.Differentiable)
         callback.put("exposure", exposed(self, "exposure"), mi.ParamFlags.NonDifferentiable)
+        callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
+            mi.ScalarMatrix4f(self.orientation))), mi.ParamFlags.NonDifferentiable)
 
     def parameters_changed(self, keys: list[str]) -> None:
         super().parameters_changed(keys)
@@ -380,6 +391,9 @@ class CubeMap(mi.Emitter):
             take_float(self, "cubemap", "scale", keep_array=True)
         if not keys or "exposure" in keys:
             take_float(self, "cubemap", "exposure", lo=0.0, open_lo=True)
+        if not keys or "to_world" in keys:
+            self._set_orientation(np.array(scalar_matrix(exposed(self, "to_world")),
+                                           dtype=np.float64).reshape(4, 4))
         if not keys or "data" in keys:
             tensor = exposed(self, "data")
             shape = tuple(tensor.shape)

@@ -176,12 +176,16 @@ def noise3(p: mi.Point3f, gradient: str = DEFAULT_GRADIENT) -> mi.Float:
     return noise(p.x, p.y, p.z, gradient)
 
 
-def turbulence(p: mi.Point3f, frequency: float, octaves: int,
+def turbulence(p: mi.Point3f, frequency: float | mi.Float, octaves: int,
                gradient: str = DEFAULT_GRADIENT) -> mi.Float:
-    """The tutorial's T = sum_{k=1..octaves} |noise(frequency * k * p)| / k."""
+    """The tutorial's T = sum_{k=1..octaves} |noise(frequency * k * p)| / k; ``frequency``
+    a Python float or a ``mi.Float`` (differentiable: the derivative flows through the
+    fractional part of each lattice coordinate)."""
     t = mi.Float(0.0)
     for k in range(1, octaves + 1):
-        f = min(frequency * k, FLOAT32_MAX)     # 0 * inf would be NaN
+        # 0 * inf would be NaN: the product is clamped to the float32 range
+        f = dr.minimum(frequency * k, FLOAT32_MAX) if dr.is_array_v(frequency) else \
+            min(frequency * k, FLOAT32_MAX)
         t += dr.abs(noise(p.x * f, p.y * f, p.z * f, gradient)) * (1.0 / k)
     return t
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..exposed import exposed, scalar_matrix, take_float, take_int
+from ..exposed import exposed, kernel_value, scalar_matrix, take_float, take_int
 from ..params import finite_color, octave_count, positive_float
 from . import _noise
 
@@ -95,17 +95,20 @@ class SolidTexture(mi.Texture):
     def is_spatially_varying(self) -> bool:
         return True
 
-    #: Python-float parameters exposed to ``mi.traverse`` (non-differentiable: the noise
-    #: lattice makes the texture discontinuous in them), each > 0.
+    #: Frequencies exposed to ``mi.traverse``, each > 0 and differentiable: the noise is
+    #: C2 in its argument, so the texture is smooth in them (the lattice cell, a floor(),
+    #: has zero derivative; the fractional part within the cell carries it). The kernels
+    #: use the traversed ``mi.Float`` (:func:`codermind.exposed.kernel_value`); the
+    #: attribute stays a Python float.
     exposed_floats: tuple[str, ...] = ("frequency",)
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         if self.mixes_colors:
             callback.put("color0", self.color0, mi.ParamFlags.Differentiable)
             callback.put("color1", self.color1, mi.ParamFlags.Differentiable)
-        nd = mi.ParamFlags.NonDifferentiable
         for name in self.exposed_floats:
-            callback.put(name, exposed(self, name), nd)
+            callback.put(name, exposed(self, name), mi.ParamFlags.Differentiable)
+        nd = mi.ParamFlags.NonDifferentiable
         if hasattr(self, "octaves"):
             callback.put("octaves", exposed(self, "octaves"), nd)
         callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
@@ -147,7 +150,8 @@ class TurbulenceBase(SolidTexture):
         self.gradient = _noise.read_gradient(props, self.plugin)
 
     def turbulence(self, p: mi.Point3f) -> mi.Float:
-        return _noise.turbulence(p, self.frequency, self.octaves, self.gradient)
+        return _noise.turbulence(p, kernel_value(self, "frequency"), self.octaves,
+                                 self.gradient)
 
     def describe(self) -> str:
         return (f"frequency = {self.frequency},\n  octaves = {self.octaves},\n"

@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import kernel_value
 from ..params import positive_float
 from ._solid import TurbulenceBase
 
@@ -68,7 +69,9 @@ class MarbleTexture(TurbulenceBase):
     The defaults are the tutorial's constants; with the default colours the texture
     returns :math:`m`. The stripe phase is clamped to :math:`\pm 2^{23}`, beyond which float32
     has no fractional bits (and the float32 sine leaves [-1, 1]), so :math:`m` stays in
-    [0, 1] at any position. :monosp:`mean()` takes :math:`m` to average 1/2 over space. As for
+    [0, 1] at any position. :monosp:`mean()` takes :math:`m` to average 1/2 over space.
+    ``mi.traverse`` exposes ``color0``, ``color1``, ``frequency`` and ``stripe_frequency``
+    (differentiable), ``octaves`` and ``to_world`` (non-differentiable). As for
     :monosp:`turbulence`, the tutorial's double application of the path weight to marble
     surfaces is not reproduced (the :monosp:`tutorial` BSDF applies it once).
 
@@ -92,7 +95,7 @@ class MarbleTexture(TurbulenceBase):
 
     def weight(self, p: mi.Point3f) -> mi.Float:
         t = self.turbulence(p)
-        phase = dr.clip(dr.fma(p.x + p.y, self.stripe_frequency, t), -PHASE_LIMIT, PHASE_LIMIT)
+        phase = dr.clip(dr.fma(p.x + p.y, kernel_value(self, "stripe_frequency"), t), -PHASE_LIMIT, PHASE_LIMIT)
         return dr.fma(0.5, dr.sin(phase), 0.5)
 
     def mean_weight(self) -> float:

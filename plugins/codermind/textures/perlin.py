@@ -3,8 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
-from ..exposed import exposed, scalar, take_float
-from ..params import FLOAT32_MAX, number, positive_float
+from ..exposed import exposed, kernel_value, scalar, take_float
+from ..params import positive_float, read_float
 from . import _noise
 from ._solid import SolidTexture
 
@@ -46,8 +46,8 @@ class PerlinTexture(SolidTexture):
     :math:`[-1, 1]`, negative values included, evaluated in single precision (see the
     package README for where float32 stops being accurate). The texture ignores UV
     coordinates. :monosp:`mean()` is ``offset``, the average over space (the noise
-    averages 0). Parameters exposed to ``mi.traverse``: ``frequency``, ``to_world``
-    (non-differentiable), ``scale`` and ``offset`` (differentiable).
+    averages 0). Parameters exposed to ``mi.traverse``: ``frequency``, ``scale`` and
+    ``offset`` (differentiable) and ``to_world`` (non-differentiable).
 
     .. tabs::
 
@@ -64,15 +64,11 @@ class PerlinTexture(SolidTexture):
         super().__init__(props, mixes_colors=False)
         self.frequency = positive_float(props, self.plugin, "frequency", 1.0)
         self.gradient = _noise.read_gradient(props, self.plugin)
-        self.scale = number(props, self.plugin, "scale", 1.0)
-        self.offset = number(props, self.plugin, "offset", 0.0)
-        for name in ("scale", "offset"):
-            if not abs(getattr(self, name)) <= FLOAT32_MAX:
-                raise ValueError(f"{self.plugin}: '{name}' must be finite (in float32), got "
-                                 f"{getattr(self, name):g}")
+        self.scale = read_float(props, self.plugin, "scale", 1.0)
+        self.offset = read_float(props, self.plugin, "offset", 0.0)
 
     def weight(self, p: mi.Point3f) -> mi.Float:
-        f = self.frequency
+        f = kernel_value(self, "frequency")
         return dr.fma(_noise.noise(p.x * f, p.y * f, p.z * f, self.gradient), self.scale,
                       self.offset)
 

@@ -56,7 +56,9 @@ class TurbulenceTexture(TurbulenceBase):
     extrapolates beyond ``color0`` (it can even become negative). With the default colours
     the texture returns :math:`T` itself. :monosp:`mean()` uses the spatial average
     :math:`E|\mathrm{noise}|`, measured: 0.2180 with the tutorial's gradient, 0.2204 with
-    the reference's.
+    the reference's. ``mi.traverse`` exposes ``color0``, ``color1`` and ``frequency``
+    (differentiable: the noise is smooth in its argument), ``octaves`` and ``to_world``
+    (non-differentiable).
 
     The tutorial multiplies the lighting of turbulence and marble surfaces by its path
     weight twice (a quirk, spec 2.6); this texture is only the colour, and the
