@@ -66,7 +66,7 @@ def main() -> int:
     import codermind  # noqa: F401
     from codermind.tutorial.render import render_linear
     from codermind_harness import sides
-    from codermind_harness.chart import fit_noise_floor
+    from codermind_harness.chart_data import fit_noise_floor
     from codermind_harness.metrics import rel_mse
 
     rect = tuple(int(v) for v in args.rect.split(","))
