@@ -53,6 +53,12 @@ def test_iid_sampler_xml_replaces_only_the_camera_sampler():
     assert iid_sampler_xml(new) == new
     bare = '<scene version="3.0.0"><sensor type="perspective"/></scene>'
     assert iid_sampler_xml(bare) == bare
+    second = ('<scene><sensor type="perspective"><film type="hdrfilm"/></sensor>'
+              '<sensor type="perspective"><sampler type="multijitter"/></sensor></scene>')
+    assert iid_sampler_xml(second) == second       # only the FIRST sensor's sampler
+    bare_first = second.replace('<sensor type="perspective"><film type="hdrfilm"/></sensor>',
+                                '<sensor type="perspective"/>')
+    assert iid_sampler_xml(bare_first) == bare_first
 
 
 def test_load_mitsuba_iid_gives_the_independent_sampler(llvm):

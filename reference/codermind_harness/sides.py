@@ -205,7 +205,7 @@ def crop_xml(text: str, offset: tuple[int, int], size: tuple[int, int]) -> str:
     return text[:m.end()] + props + text[m.end():]
 
 
-_SENSOR = re.compile(r'<sensor\b')
+_SENSOR = re.compile(r'<sensor\b[^>]*>')
 _SAMPLER = re.compile(r'<sampler\b[^>]*?(?:/>|>.*?</sampler>)', re.S)
 _SAMPLE_COUNT = re.compile(r'<integer\s+name="sample_count"[^>]*/>')
 
@@ -219,7 +219,10 @@ def iid_sampler_xml(text: str) -> str:
     several units with no difference in the rendering (docs/results/compare.md, the page-4
     blob). The ``sample_count`` element is kept (the render sets the count anyway)."""
     s = _SENSOR.search(text)
-    m = _SAMPLER.search(text, s.end()) if s else None
+    if s is None or s.group(0).endswith("/>"):
+        return text                 # no sensor, or one without children: the default sampler
+    end = text.find("</sensor>", s.end())
+    m = _SAMPLER.search(text, s.end(), end if end >= 0 else len(text))
     if m is None:
         return text                 # Mitsuba's default sampler is already independent
     count = _SAMPLE_COUNT.search(m.group(0))    # kept: it may read an XML default ($spp)
