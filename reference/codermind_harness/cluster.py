@@ -158,15 +158,16 @@ def _trace_tiles(job, tiles) -> list:
 
 
 def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, defines: dict,
-                  variance: bool, variant: str | None, exposure_seeds=()) -> SideImage:
+                  variance: bool, variant: str | None, exposure_seeds=(),
+                  iid: bool = False) -> SideImage:
     """``sides.render_mitsuba`` on a worker, the loaded scene kept for the next task."""
     from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     from .sides import encode_mitsuba, load_mitsuba
     t0 = time.perf_counter()
     _variant(variant)
-    key = (bundle.digest, grid, tuple(sorted(defines.items())), variant)
+    key = (bundle.digest, grid, tuple(sorted(defines.items())), variant, iid)
     if key not in _WORKER["scenes"]:
-        scene, settings = load_mitsuba(bundle.materialize(), grid, dict(defines))
+        scene, settings = load_mitsuba(bundle.materialize(), grid, dict(defines), iid)
         scenes = light_scenes(scene) if settings.lights == "sum" else scene
         _WORKER["scenes"][key] = (scenes, settings)
     scenes, settings = _WORKER["scenes"][key]
@@ -296,13 +297,14 @@ class Cluster:
 
     def render_mitsuba(self, xml: Path, grid: Grid, spp: int, seed: int, exposure,
                        defines: dict | None = None, variance: bool = True,
-                       variant: str | None = None, exposure_seeds=()) -> SideImage:
+                       variant: str | None = None, exposure_seeds=(),
+                       iid: bool = False) -> SideImage:
         if variant is None:
             import mitsuba as mi
             variant = mi.variant()          # the client's, set by the command
         [f] = self.submit_all(_mitsuba_task, [(self.bundle(xml), grid, spp, seed, exposure,
                                                dict(defines or {}), variance, variant,
-                                               tuple(exposure_seeds))])
+                                               tuple(exposure_seeds), iid)])
         return next(self.results([f]))
 
     def bundle(self, xml: Path) -> Bundle:

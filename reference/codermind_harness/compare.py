@@ -192,8 +192,9 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
 
     port = sides.render_port(scene, grid, spp, opt.seed, exposure, opt.port_mode, random,
                              opt.workers, opt.progress)
+    # iid: the pooled tests need the port's kind of estimator on both sides (sides.iid_sampler_xml)
     mits = sides.render_mitsuba(xml, grid, spp, opt.seed, exposure, defines,
-                                progress=opt.progress, exposure_seeds=seeds)
+                                progress=opt.progress, exposure_seeds=seeds, iid=random)
     th = opt.thresholds
     etest = None
     if seeds:

@@ -205,8 +205,35 @@ def crop_xml(text: str, offset: tuple[int, int], size: tuple[int, int]) -> str:
     return text[:m.end()] + props + text[m.end():]
 
 
-def load_mitsuba(xml: Path, grid: Grid, defines: dict):
-    """The scene of ``xml`` with the first sensor's film cropped to the grid's rectangle."""
+_SENSOR = re.compile(r'<sensor\b[^>]*>')
+_SAMPLER = re.compile(r'<sampler\b[^>]*?(?:/>|>.*?</sampler>)', re.S)
+_SAMPLE_COUNT = re.compile(r'<integer\s+name="sample_count"[^>]*/>')
+
+
+def iid_sampler_xml(text: str) -> str:
+    """``text`` with the first sensor's sampler replaced by ``independent``: every sample of
+    a sub-sample an independent draw, as the port's rays are. The pooled tests need both
+    sides' sub-sample means to come from the same kind of estimator: a stratified sampler
+    (``multijitter``) gives the same expectation with another distribution of the mean and
+    of its variance estimate, and Stouffer's Z over thousands of signed z then drifts by
+    several units with no difference in the rendering (docs/results/compare.md, the page-4
+    blob). The ``sample_count`` element is kept (the render sets the count anyway)."""
+    s = _SENSOR.search(text)
+    if s is None or s.group(0).endswith("/>"):
+        return text                 # no sensor, or one without children: the default sampler
+    end = text.find("</sensor>", s.end())
+    m = _SAMPLER.search(text, s.end(), end if end >= 0 else len(text))
+    if m is None:
+        return text                 # Mitsuba's default sampler is already independent
+    count = _SAMPLE_COUNT.search(m.group(0))    # kept: it may read an XML default ($spp)
+    body = f"<sampler type=\"independent\">{count.group(0)}</sampler>" if count else \
+        '<sampler type="independent"/>'
+    return text[:m.start()] + body + text[m.end():]
+
+
+def load_mitsuba(xml: Path, grid: Grid, defines: dict, iid: bool = False):
+    """The scene of ``xml`` with the first sensor's film cropped to the grid's rectangle;
+    with ``iid``, its sampler replaced by ``independent`` (:func:`iid_sampler_xml`)."""
     import mitsuba as mi
     from codermind.errors import CodermindError
     from codermind.scene import attach_emitters, load_scene
@@ -219,9 +246,14 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict):
         raise HarnessError(f"{xml}: {settings.width}x{settings.height}, but its twin is "
                            f"{grid.width}x{grid.height}")
     try:
-        if grid.rect == (0, 0, grid.width, grid.height):
+        full = grid.rect == (0, 0, grid.width, grid.height)
+        if full and not iid:
             return load_scene(xml, **defines), settings
-        text = crop_xml(xml.read_text(encoding="utf-8"), *grid.crop())
+        text = xml.read_text(encoding="utf-8")
+        if not full:
+            text = crop_xml(text, *grid.crop())
+        if iid:
+            text = iid_sampler_xml(text)
         resolver = mi.file_resolver()
         saved = [resolver[i] for i in range(len(resolver))]
         resolver.prepend(str(xml.resolve().parent))   # as load_file does for its own folder
@@ -250,18 +282,19 @@ def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.n
 
 def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
                    defines: dict | None = None, variance: bool = True,
-                   progress: bool = True, exposure_seeds=()) -> SideImage:
+                   progress: bool = True, exposure_seeds=(), iid: bool = False) -> SideImage:
     """The grid rendered from ``xml``; with ``exposure_seeds`` (page 4) also the auto
-    exposure of the XML's probes for each of those seeds."""
+    exposure of the XML's probes for each of those seeds; with ``iid`` with the
+    ``independent`` sampler (:func:`iid_sampler_xml`)."""
     from codermind.render import Progress
     from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     from .cluster import current
     if current() is not None:       # one task on a worker, which keeps the loaded scene
         return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance,
-                                        exposure_seeds=exposure_seeds)
+                                        exposure_seeds=exposure_seeds, iid=iid)
     t0 = time.perf_counter()
     defines = dict(defines or {})
-    scene, settings = load_mitsuba(xml, grid, defines)
+    scene, settings = load_mitsuba(xml, grid, defines, iid)
     t1 = time.perf_counter()
     scenes = light_scenes(scene) if settings.lights == "sum" else scene
     bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
