@@ -37,6 +37,20 @@ def test_with_falloff_equals_builtin_point(llvm):
     assert np.allclose(mine, ref, rtol=1e-5, atol=1e-7)
 
 
+
+def test_particle_tracer_with_falloff_equals_builtin_point(llvm):
+    """[built-in] The particle tracer starts light paths with sample_ray and connects them
+    with sample_position's record: every field of that record must be set (it failed with
+    "ad_call(): callable returned an empty/uninitialized Dr.Jit array" before)."""
+    mi = llvm
+    common = {"position": [1.0, 3.0, -2.0], "intensity": {"type": "rgb", "value": [25.0, 20.0, 15.0]}}
+    tracer = {"type": "ptracer", "max_depth": 3}
+    ref = np.array(mi.render(scene_with(mi, {"type": "point", **common}, tracer), spp=64, seed=5))
+    mine = np.array(mi.render(scene_with(mi, {"type": "tutorialpoint", "falloff": True, **common},
+                                         tracer), spp=64, seed=5))
+    assert ref.mean() > 0.01
+    assert abs(mine.mean() / ref.mean() - 1) < 0.02
+
 def lambert_image(mi, light_position, intensity, albedo):
     """Orthographic view of a diffuse sphere: one ray through the centre of each pixel,
     direct lighting from the light alone (deterministic)."""

@@ -117,9 +117,13 @@ class TutorialPointLight(mi.Emitter):
 
     def sample_position(self, time: mi.Float, sample: mi.Point2f,
                         active: mi.Bool = True) -> tuple[mi.PositionSample3f, mi.Float]:
-        ps = mi.PositionSample3f()
+        # every field set, as the built-in point light does: a default-constructed record
+        # leaves n, uv and pdf empty, which the particle tracer's symbolic call refuses
+        ps = dr.zeros(mi.PositionSample3f) if dr.is_jit_v(mi.Float) else mi.PositionSample3f()
         ps.p = mi.Point3f(self.position)
+        ps.uv = mi.Point2f(0.5)
         ps.time = time
+        ps.pdf = mi.Float(1.0)
         ps.delta = mi.Bool(True)
         return ps, mi.Float(1.0)
 
