@@ -12,7 +12,7 @@ its parts (integrator variants side by side), and the blob mesh against analytic
    no shadow ray traced, no delta lights at all, no emission looked up at hits, fewer ray
    flags. Rendered interleaved, medians of ``--runs``.
 3. **The blob**: the scene as converted, the blob's three sources as three analytic glass
-   spheres of the blob's radius, and no blob.
+   spheres of the blob's radius, the blob meshed with ``--max-error``, and no blob.
 
 The split between Embree (ray traversal) and the JIT-compiled megakernel comes from
 ``perf record -g python benchmarks/profile_page4.py`` then ``perf report --sort dso``.
@@ -92,6 +92,9 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--spp", type=int, default=8)
     p.add_argument("--runs", type=int, default=3)
+    p.add_argument("--max-error", type=float, default=0.0864865,
+                   help="another blob max_error for the blob table (default: the rule before "
+                        "2026-12-02)")
     args = p.parse_args()
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
@@ -103,8 +106,9 @@ def main() -> int:
     sys.path.insert(0, str(folder))
     source = bench.SHARED / "derived_scene_complexity256.txt"
 
-    def scene(name: str, integrator: str = "tutorialpath", spp: int = args.spp, xml_edit=None):
-        xml = bench.convert(source, folder, name, spp=spp)
+    def scene(name: str, integrator: str = "tutorialpath", spp: int = args.spp, xml_edit=None,
+              **options):
+        xml = bench.convert(source, folder, name, spp=spp, **options)
         text = xml.read_text().replace('type="tutorialpath"', f'type="{integrator}"')
         xml.write_text(xml_edit(text) if xml_edit else text)
         return tr.load(xml)[0]
@@ -140,6 +144,7 @@ def main() -> int:
 
     blob = {"as converted (blob mesh)": scene("blob"),
             "3 analytic glass spheres": scene("spheres", xml_edit=spheres),
+            f"blob max_error {args.max_error:g}": scene("coarse", blob_max_error=args.max_error),
             "no blob": scene("noblob", xml_edit=no_blob)}
     for sh in blob["as converted (blob mesh)"].shapes():
         if sh.is_mesh():

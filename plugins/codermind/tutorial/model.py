@@ -54,7 +54,13 @@ FULL_DEPTH = 10
 #: Default pixel-error target, in 8-bit levels (before truncation).
 DEFAULT_TARGET = 0.5
 #: Blob max_error as a fraction of a sub-sample's footprint at the blob's nearest distance.
-BLOB_FRACTION = 0.25
+#: A quarter (page 4: 0.0865) left a bias that compare finds: the flat triangles lie inside
+#: the surface, so more sky shows at the silhouette (caught at 16 spp) and rays meet the mesh
+#: further along, at more grazing incidence, where the Fresnel R rises (+0.36 % of R x cube
+#: map on the blob's edge). A sixteenth (0.0216) brings both below the noise of 1024 spp
+#: (docs/results/compare.md); the render costs about the same (mesh traversal depends little
+#: on the triangle count, benchmarks/profile_page4.py), only the mesh build grows.
+BLOB_FRACTION = 1.0 / 16.0
 #: |Perlin improved noise| <= this (about 1.04 is reached); with the 9 octaves' weights 1/k.
 NOISE_BOUND = 1.1
 TURBULENCE_BOUND = NOISE_BOUND * sum(1.0 / k for k in range(1, 10))
