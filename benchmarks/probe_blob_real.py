@@ -19,11 +19,12 @@ ap.add_argument("--lights", type=int, default=0)
 ap.add_argument("--bump", type=float, default=0.0)
 ap.add_argument("--rect", default="300,250,332,274")
 ap.add_argument("--seed", type=int, default=0)
-ap.add_argument("--max-depth", type=int, default=11)
+ap.add_argument("--max-depth", type=int, default=11)  # both sides: K rays (port: MAX_SEGMENTS = K - 1)
 ap.add_argument("--no-mirror", action="store_true")
 ap.add_argument("--mirror-bump", type=float, default=0.1)
 ap.add_argument("--port-reps", type=int, default=-1)
 a = ap.parse_args()
+transport.MAX_SEGMENTS = a.max_depth - 1
 W = os.environ.get("ROOT", os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 scene = parse_scene(f"{W}/scenes/page4.txt")
 scene.materials[3].bumplevel = a.bump
@@ -81,7 +82,7 @@ for r in range(a.reps):
     L, _, _ = integ.sample(ms, sampler, ray, None, True)
     M.append(np.array(L).reshape(3, -1) if np.array(L).shape[0] == 3 else np.array(L).T)
 P, M = np.stack(P), np.stack(M)        # (reps, 3, N)
-print(f"no_mirror {a.no_mirror} mirror_bump {a.mirror_bump} max_error {a.me} lens {a.lens} reps {a.reps} refraction {a.refraction} lights {a.lights} bump {a.bump}: rays {N}")
+print(f"max_depth {a.max_depth} no_mirror {a.no_mirror} mirror_bump {a.mirror_bump} max_error {a.me} lens {a.lens} reps {a.reps} refraction {a.refraction} lights {a.lights} bump {a.bump}: rays {N}")
 for name, s in (("blob-labelled", lab), ("sky-labelled", ~lab)):
     mp, mm = P[:, :, s].mean((0, 2)), M[:, :, s].mean((0, 2))
     vp = P[:, :, s].var(0, ddof=1).sum(1) / (P.shape[0] * s.sum() ** 2)
