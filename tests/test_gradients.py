@@ -303,6 +303,25 @@ def _smooth_weight(mi, wo):
     return 1.0 + 0.5 * wo.x + 0.3 * wo.y + 0.2 * wo.z
 
 
+def _ad_and_central_difference(mi, params, key: str, scalar, h: float) -> tuple[float, float]:
+    """d scalar() / d params[key] by AD (dr.backward) and by the central difference with step
+    ``h``; the parameter is left at its value."""
+    import drjit as dr
+    x0 = float(params[key][0])
+
+    def at(value):
+        params[key] = mi.Float(value)
+        params.update()
+        return float(scalar()[0])
+
+    fd = (at(x0 + h) - at(x0 - h)) / (2 * h)
+    params[key] = mi.Float(x0)
+    dr.enable_grad(params[key])
+    params.update()
+    dr.backward(scalar())
+    return float(dr.grad(params[key])[0]), fd
+
+
 @pytest.mark.parametrize("page,key,inside", [
     (4, "reflection", False), (4, "refraction", False), (4, "density", False),
     (4, "reflection", True), (4, "refraction", True), (4, "density", True),
@@ -327,20 +346,7 @@ def test_tutorial_sampled_weights_match_finite_differences(llvm, page, key, insi
         bs, weight = bsdf.sample(ctx, si, u, mi.Point2f(0.5, 0.5))
         return dr.mean(mi.Color3f(weight).x * _smooth_weight(mi, bs.wo), axis=None)
 
-    x0 = float(params[key][0])
-    h = 1e-2
-
-    def at(value):
-        params[key] = mi.Float(value)
-        params.update()
-        return float(estimate()[0])
-
-    fd = (at(x0 + h) - at(x0 - h)) / (2 * h)
-    params[key] = mi.Float(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    dr.backward(estimate())
-    ad = float(dr.grad(params[key])[0])
+    ad, fd = _ad_and_central_difference(mi, params, key, estimate, 1e-2)
     print(f"page {page} {key} inside={inside}: AD {ad:.6g}, central difference {fd:.6g}")
     assert abs(fd) > 1e-3
     assert ad == pytest.approx(fd, rel=0.01), (ad, fd)
@@ -364,20 +370,7 @@ def test_tutorial_lighting_weight_matches_finite_differences(llvm, key):
     def value():
         return dr.mean(mi.Color3f(bsdf.eval(ctx, si, wo)).x, axis=None)
 
-    x0 = float(params[key][0])
-    h = 1e-3
-
-    def at(v):
-        params[key] = mi.Float(v)
-        params.update()
-        return float(value()[0])
-
-    fd = (at(x0 + h) - at(x0 - h)) / (2 * h)
-    params[key] = mi.Float(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    dr.backward(value())
-    ad = float(dr.grad(params[key])[0])
+    ad, fd = _ad_and_central_difference(mi, params, key, value, 1e-3)
     print(f"eval {key}: AD {ad:.6g}, central difference {fd:.6g}")
     assert abs(fd) > 1e-3
     assert ad == pytest.approx(fd, rel=5e-3), (ad, fd)
