@@ -199,6 +199,30 @@ def test_blob_vertices_follow_the_surface_to_first_order(llvm, key, delta, field
         assert checked > 100
 
 
+def _centre_gradient(mi, scene, steps) -> tuple[float, list[float]]:
+    """prb's derivative of the mean pixel along a fixed random direction of the blob's
+    centre coordinates, and the central differences of re-tessellated renders for each
+    step in ``steps``."""
+    import drjit as dr
+    params = mi.traverse(scene)
+    key = "obj.centers"
+    x0 = mi.Float(params[key])
+    direction = mi.Float(np.random.default_rng(3).uniform(-1, 1, 6).astype(np.float32))
+
+    def loss(value):
+        params[key] = value
+        params.update()
+        return float(dr.mean(mi.render(scene, params, spp=64, seed=1).array)[0])
+
+    fds = [(loss(x0 + h * direction) - loss(x0 - h * direction)) / (2 * h) for h in steps]
+    params[key] = mi.Float(x0)
+    dr.enable_grad(params[key])
+    params.update()
+    image = mi.render(scene, params, spp=64, seed=1, seed_grad=2)
+    dr.backward(dr.mean(image.array))
+    return float(np.sum(np.array(dr.grad(params[key])) * np.array(direction))), fds
+
+
 def test_blob_centre_gradient_matches_finite_differences(llvm):
     """prb's gradient of the mean pixel along a direction of the 6 centre coordinates,
     framing the blob so that no silhouette is visible (prb takes no boundary terms),
@@ -206,27 +230,10 @@ def test_blob_centre_gradient_matches_finite_differences(llvm):
     field. Each difference re-meshes, which adds noise of its own: measured 0.150, 0.147,
     0.145 for h = 0.01, 0.02, 0.04 against AD 0.144; the mean of h = 0.02 and 0.04 is
     compared, within 5%. (The zone field with this light: see the next test.)"""
-    import drjit as dr
     mi = llvm
-    scene = mi.load_dict(_blob_scene(mi, "exact"))
-    params = mi.traverse(scene)
-    key = "obj.centers"
-    x0 = mi.Float(params[key])
-    d = mi.Float(np.random.default_rng(3).uniform(-1, 1, 6).astype(np.float32))
-
-    def loss(value):
-        params[key] = value
-        params.update()
-        return float(dr.mean(mi.render(scene, params, spp=64, seed=1).array)[0])
-
-    fd = np.mean([(loss(x0 + h * d) - loss(x0 - h * d)) / (2 * h) for h in (0.02, 0.04)])
-    params[key] = mi.Float(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    image = mi.render(scene, params, spp=64, seed=1, seed_grad=2)
-    dr.backward(dr.mean(image.array))
-    ad = float(np.sum(np.array(dr.grad(params[key])) * np.array(d)))
-    print(f"{key}: AD {ad:.5g}, central difference {fd:.5g}")
+    ad, fds = _centre_gradient(mi, mi.load_dict(_blob_scene(mi, "exact")), (0.02, 0.04))
+    fd = float(np.mean(fds))
+    print(f"centers: AD {ad:.5g}, central difference {fd:.5g}")
     assert ad == pytest.approx(fd, rel=0.05)
 
 
@@ -241,32 +248,13 @@ def test_zone_field_centre_gradient_matches_finite_differences_without_visible_s
     0.0005) keeps the differences' re-meshing noise low. The tolerance follows from the
     differences' own noise: their spread between the two step sizes, which must itself
     be below 5%."""
-    import drjit as dr
     mi = llvm
     d = _blob_scene(mi, "tutorial")
     d["obj"]["max_error"] = 0.0005
     d["light"]["position"] = [0, 0, 2]          # at the eye: no visible shadow
-    scene = mi.load_dict(d)
-    params = mi.traverse(scene)
-    key = "obj.centers"
-    x0 = mi.Float(params[key])
-    direction = mi.Float(np.random.default_rng(3).uniform(-1, 1, 6).astype(np.float32))
-
-    def loss(value):
-        params[key] = value
-        params.update()
-        return float(dr.mean(mi.render(scene, params, spp=64, seed=1).array)[0])
-
-    fds = [(loss(x0 + h * direction) - loss(x0 - h * direction)) / (2 * h)
-           for h in (0.005, 0.01)]
+    ad, fds = _centre_gradient(mi, mi.load_dict(d), (0.005, 0.01))
     fd, spread = float(np.mean(fds)), abs(fds[0] - fds[1])
-    params[key] = mi.Float(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    image = mi.render(scene, params, spp=64, seed=1, seed_grad=2)
-    dr.backward(dr.mean(image.array))
-    ad = float(np.sum(np.array(dr.grad(params[key])) * np.array(direction)))
-    print(f"{key} (zone field): AD {ad:.5g}, central differences {fds}")
+    print(f"centers (zone field): AD {ad:.5g}, central differences {fds}")
     assert spread < 0.05 * abs(fd)
     assert abs(ad - fd) <= 2 * spread + 0.01 * abs(fd)
 
