@@ -87,10 +87,12 @@ def main() -> int:
         scene, _ = sides.load_mitsuba(path, grid, {"quirks": quirks, "spp": "1"})
         return scene
 
-    def render(scene, spp: int, seed: int):
+    def render(scene, spp: int, seed: int, warm: bool = True):
         # untimed, at the same count: a sampler whose kernel depends on the sample count
         # (stratified and the others bake it in) compiles here, not in the timed render
-        render_linear(scene, spp, 777)
+        # (the references are not timed: no warm-up)
+        if warm:
+            render_linear(scene, spp, 777)
         dr.sync_thread()
         c0 = cpu()
         mean, _, _, _ = render_linear(scene, spp, seed)
@@ -99,7 +101,8 @@ def main() -> int:
 
     refs = {}
     for quirks in ("clean", "strict"):
-        refs[quirks], c = render(scene_with("independent", quirks), args.ref_spp, 4242)
+        refs[quirks], c = render(scene_with("independent", quirks), args.ref_spp, 4242,
+                                    warm=False)
         print(f"reference {quirks}: {args.ref_spp} spp, {c:.1f} CPU s")
 
     port_c = [int(v) for v in args.port_c.split(",")]
