@@ -1,7 +1,8 @@
-"""Deterministic expectation of page 4's blob with Refraction 0 and both lights off (bump off):
-outside hit -> 0.81 R L(refl), inside hit -> 0.9 L(refl); miss -> cube map; 10 segments, then
-the 11th ray adds the cube map if it escapes. Spheres end the path (0) on both sides.
-Same rays (pinhole or lens draws) on the port's exact surface and on Mitsuba's mesh."""
+"""Page 4's blob with both lights off (bump off), on the port's exact surface and on
+Mitsuba's mesh, with common random numbers: the same roulette draw per ray and segment on both
+sides (reflect with 0.9 R, refract with --refraction x (1 - R), else the path ends), so that
+the difference is the geometry's alone. Spheres end the path (0) on both sides; a miss adds
+the cube map. The deterministic special case (Refraction 0) is probe_blob_det.py."""
 import argparse, os
 import numpy as np
 import mitsuba as mi
@@ -140,15 +141,12 @@ if not a.mitsuba_only:
     vm, sm, im = mitsuba(ms, o, d)
     def rep(name, s):
         mp, mm = vp[:, s].mean(1), vm[:, s].mean(1)
-        diff = vm[:, s] - vp[:, s]
-        se = diff.std(1) / np.sqrt(s.sum() / k)  # rough: rays of one sub-sample correlated
         print(f"  {name:28s} n {s.sum():7d} port {mp.round(5)} mesh {mm.round(5)} "
               f"diff {(100*(mm/mp-1)).round(3)} %")
     print(f"max_error {a.me} lens {a.lens} density {a.density} refraction {a.refraction} (CRN seed {a.seed}): rays {N}")
     rep("blob-labelled", lab)
     rep("sky-labelled", ~lab)
     rep("all", np.ones(N, bool))
-    hit_p = sp != 0; 
     for nm_, s in (("port escapes at seg 1", lab & (sp == 1)), ("port seg >= 2", lab & (sp >= 2)),
                    ("port never escapes", lab & (sp == 0)), ("port inside>=1", lab & (ip > 0)),
                    ("mesh inside>=1", lab & (im > 0))):

@@ -106,15 +106,12 @@ vp, sp, ip = port(o, d)
 vm, sm, im = mitsuba(ms, o, d)
 def rep(name, s):
     mp, mm = vp[:, s].mean(1), vm[:, s].mean(1)
-    diff = vm[:, s] - vp[:, s]
-    se = diff.std(1) / np.sqrt(s.sum() / k)  # rough: rays of one sub-sample correlated
     print(f"  {name:28s} n {s.sum():7d} port {mp.round(5)} mesh {mm.round(5)} "
           f"diff {(100*(mm/mp-1)).round(3)} %")
 print(f"max_error {a.me} lens {a.lens} density {a.density}: rays {N}")
 rep("blob-labelled", lab)
 rep("sky-labelled", ~lab)
 rep("all", np.ones(N, bool))
-hit_p = sp != 0; 
 for nm_, s in (("port escapes at seg 1", lab & (sp == 1)), ("port seg >= 2", lab & (sp >= 2)),
                ("port never escapes", lab & (sp == 0)), ("port inside>=1", lab & (ip > 0)),
                ("mesh inside>=1", lab & (im > 0))):
