@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import resource
 import sys
 import tempfile
@@ -80,8 +79,7 @@ def main() -> int:
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
 
     def scene_with(sampler: str, quirks: str = "clean"):
-        t = re.sub(r'<sampler type="\w+">  <!-- lens and roulette draws -->',
-                   f'<sampler type="{sampler}">', text, count=1)
+        t = sides.sampler_xml(text, sampler)
         path = folder / f"{sampler}_{quirks}.xml"
         path.write_text(t)
         scene, _ = sides.load_mitsuba(path, grid, {"quirks": quirks, "spp": "1"})

@@ -91,3 +91,14 @@ def test_compare_asks_for_iid_on_random_scenes_only(monkeypatch, tmp_path):
         with pytest.raises(Stop):
             compare.compare_scene(ROOT / "scenes" / f"{name}.xml", opt)
     assert seen == [True, False]
+
+
+def test_sampler_xml_sets_any_kind_and_refuses_a_missing_sampler():
+    """bench_samplers.py swaps the camera sampler through the same function."""
+    from codermind_harness.sides import sampler_xml
+    text = (ROOT / "scenes" / "page4.xml").read_text(encoding="utf-8")
+    camera = sampler_xml(text, "ldsampler").split("<sensor")[1]
+    assert '<sampler type="ldsampler"><integer name="sample_count" value="$spp"/></sampler>' \
+        in camera
+    with pytest.raises(ValueError, match="no sensor sampler"):
+        sampler_xml('<scene><sensor type="perspective"/></scene>', "stratified")

@@ -211,23 +211,34 @@ _SAMPLE_COUNT = re.compile(r'<integer\s+name="sample_count"[^>]*/>')
 
 
 def iid_sampler_xml(text: str) -> str:
-    """``text`` with the first sensor's sampler replaced by ``independent``: every sample of
+    """``text`` with the first sensor's sampler replaced by ``independent``
+    (:func:`sampler_xml`): every sample of
     a sub-sample an independent draw, as the port's rays are. The pooled tests need both
     sides' sub-sample means to come from the same kind of estimator: a stratified sampler
     (``multijitter``) gives the same expectation with another distribution of the mean and
     of its variance estimate, and Stouffer's Z over thousands of signed z then drifts by
     several units with no difference in the rendering (docs/results/compare.md, the page-4
-    blob). The ``sample_count`` element is kept (the render sets the count anyway)."""
+    blob)."""
+    return sampler_xml(text, "independent")
+
+
+def sampler_xml(text: str, kind: str) -> str:
+    """``text`` with the first sensor's own sampler replaced by one of type ``kind``, keeping
+    its ``sample_count`` element (it may read an XML default such as ``$spp``). A sensor
+    without a sampler has Mitsuba's default, ``independent``: left alone for that kind,
+    refused for another."""
     s = _SENSOR.search(text)
-    if s is None or s.group(0).endswith("/>"):
-        return text                 # no sensor, or one without children: the default sampler
-    end = text.find("</sensor>", s.end())
-    m = _SAMPLER.search(text, s.end(), end if end >= 0 else len(text))
+    m = None
+    if s is not None and not s.group(0).endswith("/>"):
+        end = text.find("</sensor>", s.end())
+        m = _SAMPLER.search(text, s.end(), end if end >= 0 else len(text))
     if m is None:
-        return text                 # Mitsuba's default sampler is already independent
-    count = _SAMPLE_COUNT.search(m.group(0))    # kept: it may read an XML default ($spp)
-    body = f"<sampler type=\"independent\">{count.group(0)}</sampler>" if count else \
-        '<sampler type="independent"/>'
+        if kind == "independent":
+            return text
+        raise ValueError(f"no sensor sampler to replace by {kind!r}")
+    count = _SAMPLE_COUNT.search(m.group(0))
+    body = f'<sampler type="{kind}">{count.group(0)}</sampler>' if count else \
+        f'<sampler type="{kind}"/>'
     return text[:m.start()] + body + text[m.end():]
 
 
