@@ -14,6 +14,15 @@ ratio to the original's time for the crop (145.7 s x crop share of the image: th
 cost per pixel is taken as uniform). CPU seconds of this process (all Dr.Jit threads) are
 used because the machine is shared; they are printed with the load. The sampler with the
 smallest time is the winner (``codermind convert`` writes it: codermind.tutorial.xml.RANDOM_SAMPLER).
+
+``--pairs`` measures the same without converged references (so that the whole image fits in
+a run): an estimator's error against its own converged mean is its variance, estimated for
+the port from its per-sub-sample variance of the mean (its rays are independent) and for each
+sampler from two renders with different seeds, mean((X1 - X2)^2 / 2 / (N^2 + eps)), which
+holds for stratified samplers too (two independent randomisations). N, the normaliser, is one
+clean render at the largest ``--spp`` (its noise moves the denominator by a fraction of a
+percent). The port's error is fitted as a / C (a variance has no floor) and evaluated at
+C = 256; the original's error against the converged tutorial image is the same quantity.
 """
 
 from __future__ import annotations
@@ -58,6 +67,8 @@ def main() -> int:
     p.add_argument("--spp", default="4,16,64,256")  # squares, powers of 2
     p.add_argument("--port-c", default="2,4,8,16")
     p.add_argument("--samplers", default=",".join(SAMPLERS))
+    p.add_argument("--pairs", action="store_true",
+                   help="variance from seed pairs instead of converged references")
     args = p.parse_args()
     import drjit as dr
     import mitsuba as mi
@@ -97,6 +108,8 @@ def main() -> int:
         dr.sync_thread()
         return grid.take(mean.astype(np.float64)), cpu() - c0
 
+    if args.pairs:
+        return pairs(args, scene_txt, grid, exposure, scene_with, render)
     refs = {}
     for quirks in ("clean", "strict"):
         refs[quirks], c = render(scene_with("independent", quirks), args.ref_spp, 4242,
@@ -134,6 +147,46 @@ def main() -> int:
             best = (sampler, t)
     print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error); "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    return 0
+
+
+def pairs(args, scene_txt, grid, exposure, scene_with, render) -> int:
+    from codermind_harness import sides
+    from codermind_harness.metrics import REL_MSE_EPS
+    spps = [int(v) for v in args.spp.split(",")]
+    norm, c = render(scene_with("independent"), max(spps), 4242, warm=False)
+    denominator = np.square(norm) + REL_MSE_EPS
+    print(f"normaliser: clean, {max(spps)} spp, {c:.1f} CPU s")
+    port_c = [int(v) for v in args.port_c.split(",")]
+    port_err = []
+    for c in port_c:
+        side = sides.render_port(scene_txt, grid, c, 1, exposure, "strict", True, 2, False)
+        port_err.append(float(np.mean(side.variance / denominator)))
+        print(f"  port strict C={c}: variance relMSE {port_err[-1]:.4g} "
+              f"(x C = {port_err[-1] * c:.4g})")
+    a = float(np.exp(np.mean(np.log(np.array(port_err) * port_c))))   # a / C, geometric mean
+    target = a / 256
+    share = grid.pixels / (scene_txt.width * scene_txt.height)
+    original = ORIGINAL_SECONDS * share
+    print(f"port fit: variance relMSE = {a:.4g} / C; at C = 256 (the original's 1024 spp): "
+          f"{target:.4g}; the original's time for this region: {original:.2f} s")
+    best = None
+    print(f"{'sampler':12s} " + " ".join(f"{'spp ' + str(s):>18s}" for s in spps)
+          + f" {'CPU s to target':>16s} {'vs original':>12s}")
+    for sampler in args.samplers.split(","):
+        scene = scene_with(sampler)
+        times, errs = [], []
+        for s in spps:
+            (x1, c1), (x2, c2) = render(scene, s, 7), render(scene, s, 8, warm=False)
+            times.append((c1 + c2) / 2)
+            errs.append(float(np.mean(np.square(x1 - x2) / 2 / denominator)))
+        t = reach(times, errs, target)
+        cells = " ".join(f"{e:9.3g} {c:7.2f}s" for e, c in zip(errs, times))
+        print(f"{sampler:12s} {cells} {t:16.3f} {original / t:11.1f}x", flush=True)
+        if best is None or t < best[1]:
+            best = (sampler, t)
+    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error, CPU "
+          f"seconds against its one core); load average {'%.2f %.2f %.2f' % os.getloadavg()}")
     return 0
 
 
