@@ -129,24 +129,30 @@ def main() -> int:
     print(f"port fit: relMSE = {a:.4g} / C + {b:.3g}; at C = 256 (the original's 1024 spp): "
           f"{target:.4g}; the original's time for this crop: {original:.3f} s")
 
+    def error(scene, spp: int):
+        lin, c = render(scene, spp, 7)
+        return rel_mse(lin, refs["clean"]), c
+
+    return sweep(args, scene_with, error, target, original)
+
+
+def sweep(args, scene_with, error, target: float, original: float) -> int:
+    """Each sampler's (error, CPU s) = ``error(scene, spp)`` over ``--spp``, the CPU time at
+    which it reaches ``target``, and the winner."""
     spps = [int(v) for v in args.spp.split(",")]
     best = None
     print(f"{'sampler':12s} " + " ".join(f"{'spp ' + str(s):>18s}" for s in spps)
           + f" {'CPU s to target':>16s} {'vs original':>12s}")
     for sampler in args.samplers.split(","):
         scene = scene_with(sampler)
-        times, errs = [], []
-        for s in spps:
-            lin, c = render(scene, s, 7)
-            times.append(c)
-            errs.append(rel_mse(lin, refs["clean"]))
+        errs, times = zip(*(error(scene, s) for s in spps))
         t = reach(times, errs, target)
         cells = " ".join(f"{e:9.3g} {c:7.2f}s" for e, c in zip(errs, times))
         print(f"{sampler:12s} {cells} {t:16.3f} {original / t:11.1f}x", flush=True)
         if best is None or t < best[1]:
             best = (sampler, t)
-    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error); "
-          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error, CPU "
+          f"seconds against its one core); load average {'%.2f %.2f %.2f' % os.getloadavg()}")
     return 0
 
 
@@ -170,24 +176,12 @@ def pairs(args, scene_txt, grid, exposure, scene_with, render) -> int:
     original = ORIGINAL_SECONDS * share
     print(f"port fit: variance relMSE = {a:.4g} / C; at C = 256 (the original's 1024 spp): "
           f"{target:.4g}; the original's time for this region: {original:.2f} s")
-    best = None
-    print(f"{'sampler':12s} " + " ".join(f"{'spp ' + str(s):>18s}" for s in spps)
-          + f" {'CPU s to target':>16s} {'vs original':>12s}")
-    for sampler in args.samplers.split(","):
-        scene = scene_with(sampler)
-        times, errs = [], []
-        for s in spps:
-            (x1, c1), (x2, c2) = render(scene, s, 7), render(scene, s, 8, warm=False)
-            times.append((c1 + c2) / 2)
-            errs.append(float(np.mean(np.square(x1 - x2) / 2 / denominator)))
-        t = reach(times, errs, target)
-        cells = " ".join(f"{e:9.3g} {c:7.2f}s" for e, c in zip(errs, times))
-        print(f"{sampler:12s} {cells} {t:16.3f} {original / t:11.1f}x", flush=True)
-        if best is None or t < best[1]:
-            best = (sampler, t)
-    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error, CPU "
-          f"seconds against its one core); load average {'%.2f %.2f %.2f' % os.getloadavg()}")
-    return 0
+
+    def error(scene, spp: int):
+        (x1, c1), (x2, c2) = render(scene, spp, 7), render(scene, spp, 8, warm=False)
+        return float(np.mean(np.square(x1 - x2) / 2 / denominator)), (c1 + c2) / 2
+
+    return sweep(args, scene_with, error, target, original)
 
 
 if __name__ == "__main__":
