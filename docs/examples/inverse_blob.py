@@ -3,7 +3,7 @@
 a target image, with Mitsuba's ``prb_projective`` (silhouette gradients included) and Adam.
 
     python docs/examples/inverse_blob.py            # the full run, 150 iterations
-    python docs/examples/inverse_blob.py --quick    # 30 iterations (the test)
+    python docs/examples/inverse_blob.py --quick    # 30 iterations, held to 17 (the test)
 
 The target is rendered from the true parameters with the same plugins and the same
 sample pattern (seed) as every primal render of the optimisation ("common random
@@ -38,7 +38,8 @@ TRUE_COLOR = [0.8, 0.3, 0.2]
 START_CENTERS = TRUE_CENTERS + np.array([[0.15, -0.1, 0.05], [-0.1, 0.12, 0.0],
                                          [0.1, -0.1, 0.1]])
 START_COLOR = [0.4, 0.6, 0.6]
-QUICK_ITERATIONS = 30     # the test's run (--quick)
+QUICK_ITERATIONS = 30     # the test's run (--quick) ...
+QUICK_HOLD = 17           # ... holds the rates 2 iterations longer than the full run's 15
 
 
 #: Camera positions, all looking at (0, 0.3, 0): the front view (page 4's), then from the
@@ -173,7 +174,8 @@ def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, nor
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true",
-                   help="the test's settings: 30 iterations (instead of 150)")
+                   help="the test's settings: 30 iterations (instead of 150), the rates "
+                        "held until iteration 17 (instead of 15)")
     p.add_argument("--iterations", type=int)
     p.add_argument("--size", type=int)
     p.add_argument("--spp", type=int, default=8)
@@ -183,8 +185,9 @@ def main() -> None:
                    help="learning rates at the end, as a fraction of their start")
     p.add_argument("--colour-first", type=int, default=4,
                    help="iterations on the colour alone before the centres join")
-    p.add_argument("--hold", type=int, default=15,
-                   help="the rates stay at their start until this iteration, then decay")
+    p.add_argument("--hold", type=int,
+                   help="the rates stay at their start until this iteration, then decay "
+                        "(default 15; --quick: 17)")
     p.add_argument("--beta-1", type=float, default=0.6)
     p.add_argument("--beta-2", type=float, default=0.9)
     p.add_argument("--grad-seed", type=int, default=0,
@@ -195,8 +198,9 @@ def main() -> None:
     a = p.parse_args()
     iterations = a.iterations or (QUICK_ITERATIONS if a.quick else 150)
     size = a.size or 32
+    hold = a.hold if a.hold is not None else (QUICK_HOLD if a.quick else 15)
     optimise(iterations, size, a.spp, a.lr_centers, a.lr_color, a.final_lr, a.normals,
-             a.integrator, a.views, a.colour_first, a.hold, a.beta_1, a.beta_2, a.grad_seed)
+             a.integrator, a.views, a.colour_first, hold, a.beta_1, a.beta_2, a.grad_seed)
 
 
 if __name__ == "__main__":
