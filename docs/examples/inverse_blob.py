@@ -3,7 +3,7 @@
 a target image, with Mitsuba's ``prb_projective`` (silhouette gradients included) and Adam.
 
     python docs/examples/inverse_blob.py            # the full run, 150 iterations
-    python docs/examples/inverse_blob.py --quick    # 40 iterations (the test)
+    python docs/examples/inverse_blob.py --quick    # 30 iterations, held to 17 (the test)
 
 The target is rendered from the true parameters with the same plugins and the same
 sample pattern (seed) as every primal render of the optimisation ("common random
@@ -13,8 +13,15 @@ parameters came, not the Monte Carlo noise. The gradients (the adjoint pass,
 iteration, the largest centre error in units of the radius R and the colour; at the end one
 line ``RESULT loss_fall=... centre_error_over_r=... colour_error=...``.
 
-Each iteration re-tessellates the blob (its centres moved); the vertex positions carry the
-derivative of the surface by the implicit function theorem.
+The schedule: the first ``colour_first`` iterations optimise the colour alone (the centres
+are not in the optimiser yet, so the blob is not re-tessellated); with the colour far off,
+the centres' gradients pointed partly the wrong way. Then Adam (beta_1 0.6, beta_2 0.9: a
+short memory, so the steps do not shrink with the gradients as the loss falls) at full
+rate until iteration ``hold``, then both rates fall exponentially to ``final_lr`` times
+their start at the last iteration.
+
+Each iteration that moves the centres re-tessellates the blob; the vertex positions carry
+the derivative of the surface by the implicit function theorem.
 """
 
 from __future__ import annotations
@@ -31,6 +38,8 @@ TRUE_COLOR = [0.8, 0.3, 0.2]
 START_CENTERS = TRUE_CENTERS + np.array([[0.15, -0.1, 0.05], [-0.1, 0.12, 0.0],
                                          [0.1, -0.1, 0.1]])
 START_COLOR = [0.4, 0.6, 0.6]
+QUICK_ITERATIONS = 30     # the test's run (--quick) ...
+QUICK_HOLD = 17           # ... holds the rates 2 iterations longer than the full run's 15
 
 
 #: Camera positions, all looking at (0, 0.3, 0): the front view (page 4's), then from the
@@ -71,12 +80,16 @@ def scene_dict(mi, centers: np.ndarray, color, size: int = 48, normals: str = "f
     }
 
 
-def optimise(iterations: int = 150, size: int = 32, spp: int = 8, lr_centers: float = 0.02,
-             lr_color: float = 0.05, final_lr: float = 0.1, normals: str = "flat",
-             integrator: str = "prb_projective", views: int = 3, log=print) -> dict:
-    """Adam on the centres and the colour; both learning rates fall exponentially to
-    ``final_lr`` times their start over the run. Returns the losses, the final centre error
-    over R and the colour."""
+def optimise(iterations: int = 150, size: int = 32, spp: int = 8, lr_centers: float = 0.03,
+             lr_color: float = 0.1, final_lr: float = 0.05, normals: str = "flat",
+             integrator: str = "prb_projective", views: int = 3, colour_first: int = 4,
+             hold: int = 15, beta_1: float = 0.6, beta_2: float = 0.9, grad_seed: int = 0,
+             log=print) -> dict:
+    """Adam on the colour alone for the first ``colour_first`` iterations, then on the
+    centres too; both learning rates stay at their start until iteration ``hold`` and then
+    fall exponentially to ``final_lr`` times their start at the last iteration. Returns the
+    losses, the final centre error over R and the colour. ``grad_seed`` shifts the seeds of
+    the adjoint passes (another sequence of gradient samples; the primal seeds stay)."""
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
@@ -90,13 +103,14 @@ def optimise(iterations: int = 150, size: int = 32, spp: int = 8, lr_centers: fl
     dr.set_expand_threshold(0)
     try:
         return _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr,
-                         normals, integrator, views, log)
+                         normals, integrator, views, colour_first, hold, beta_1, beta_2, grad_seed,
+                         log)
     finally:
         dr.set_expand_threshold(threshold)
 
 
 def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, normals,
-              integrator, views, log) -> dict:
+              integrator, views, colour_first, hold, beta_1, beta_2, grad_seed, log) -> dict:
     def load(centers, color):
         return mi.load_dict(scene_dict(mi, centers, color, size, normals, integrator,
                                     views=views))
@@ -108,19 +122,25 @@ def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, nor
     params = mi.traverse(scene)
     keys = ("blob.centers", "blob.bsdf.reflectance.color0.value")
     rates = {keys[0]: lr_centers, keys[1]: lr_color}
-    opt = mi.ad.Adam(lr=lr_centers)
-    for key in keys:
+    opt = mi.ad.Adam(lr=lr_centers, beta_1=beta_1, beta_2=beta_2)
+
+    def add(key):        # (Adam's moments of a parameter start when it is added)
         opt[key] = params[key]
         opt.set_learning_rate({key: rates[key]})
+
+    add(keys[1])
+    if colour_first <= 0:
+        add(keys[0])
     params.update(opt)
     losses, t0 = [], time.perf_counter()
-    decay = final_lr ** (1.0 / max(iterations - 1, 1))
+    hold = min(max(hold, 0), iterations - 1)
+    decay = final_lr ** (1.0 / max(iterations - 1 - hold, 1))
     error = math.inf
     for it in range(iterations):
         loss = 0
         for v in range(views):
             image = mi.render(scene, params, sensor=v, spp=spp, seed=seed + v,
-                              seed_grad=views * (1 + it) + v)
+                              seed_grad=grad_seed + views * (1 + it) + v)
             view_loss = dr.mean(dr.square(image - targets[v]), axis=None) / views
             dr.backward(view_loss)
             loss += float(np.ravel(np.array(view_loss))[0])
@@ -135,8 +155,11 @@ def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, nor
                 f"{time.perf_counter() - t0:.0f} s")
         if it < iterations - 1:
             opt.step()
+            if it + 1 == colour_first:
+                add(keys[0])
             for key in keys:
-                opt.set_learning_rate({key: rates[key] * decay ** (it + 1)})
+                if key in opt:
+                    opt.set_learning_rate({key: rates[key] * decay ** max(it + 1 - hold, 0)})
             params.update(opt)
     fall = losses[0] / max(losses[-1], 1e-30)
     color_error = float(np.abs(np.array(color) - TRUE_COLOR).max())
@@ -151,24 +174,33 @@ def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, nor
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true",
-                   help="the test's settings: 40 iterations (instead of 150), final lr 0.05")
+                   help="the test's settings: 30 iterations (instead of 150), the rates "
+                        "held until iteration 17 (instead of 15)")
     p.add_argument("--iterations", type=int)
     p.add_argument("--size", type=int)
     p.add_argument("--spp", type=int, default=8)
-    p.add_argument("--lr-centers", type=float, default=0.02)
-    p.add_argument("--lr-color", type=float, default=0.05)
-    p.add_argument("--final-lr", type=float,
-                   help="learning rates at the end, as a fraction of their start "
-                        "(default 0.1; --quick: 0.05)")
+    p.add_argument("--lr-centers", type=float, default=0.03)
+    p.add_argument("--lr-color", type=float, default=0.1)
+    p.add_argument("--final-lr", type=float, default=0.05,
+                   help="learning rates at the end, as a fraction of their start")
+    p.add_argument("--colour-first", type=int, default=4,
+                   help="iterations on the colour alone before the centres join")
+    p.add_argument("--hold", type=int,
+                   help="the rates stay at their start until this iteration, then decay "
+                        "(default 15; --quick: 17)")
+    p.add_argument("--beta-1", type=float, default=0.6)
+    p.add_argument("--beta-2", type=float, default=0.9)
+    p.add_argument("--grad-seed", type=int, default=0,
+                   help="offset of the adjoint passes' seeds (the primal seeds stay)")
     p.add_argument("--normals", default="flat", choices=["exact", "field", "flat"])
     p.add_argument("--integrator", default="prb_projective")
     p.add_argument("--views", type=int, default=3, choices=[1, 2, 3])
     a = p.parse_args()
-    iterations = a.iterations or (40 if a.quick else 150)
+    iterations = a.iterations or (QUICK_ITERATIONS if a.quick else 150)
     size = a.size or 32
-    final_lr = a.final_lr or (0.05 if a.quick else 0.1)
-    optimise(iterations, size, a.spp, a.lr_centers, a.lr_color, final_lr, a.normals,
-             a.integrator, a.views)
+    hold = a.hold if a.hold is not None else (QUICK_HOLD if a.quick else 15)
+    optimise(iterations, size, a.spp, a.lr_centers, a.lr_color, a.final_lr, a.normals,
+             a.integrator, a.views, a.colour_first, hold, a.beta_1, a.beta_2, a.grad_seed)
 
 
 if __name__ == "__main__":
