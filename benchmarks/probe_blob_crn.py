@@ -14,6 +14,7 @@ from codermind_ref.world import World
 from codermind_ref import camera, quirks as Q
 from codermind_ref.transport import fresnel
 from codermind_ref.vec import dot
+from codermind_ref.materials import bump
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--me", type=float, default=0.086487)
@@ -26,6 +27,9 @@ ap.add_argument("--useed", type=int, default=1000)
 ap.add_argument("--reps", type=int, default=1)
 ap.add_argument("--rays", type=int, default=11)
 ap.add_argument("--mitsuba-only", action="store_true")
+ap.add_argument("--bump", type=float, default=0.0,
+                help="Bumplevel on both geometries: the port's numpy bump (spec 2.9) of the "
+                     "flipped normal at each side's own hit point")
 a = ap.parse_args()
 W = os.environ.get("ROOT", os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 scene = parse_scene(f"{W}/scenes/page4.txt")
@@ -84,6 +88,8 @@ def port(o, d):
         n, _ = world.normal(p, np.full(ids.size, 3))
         inside = dot(n, d) > 0
         nf = np.where(inside, -n, n)
+        if a.bump:
+            nf = bump(nf, p, np.full(ids.size, a.bump))
         nin[ids] += inside
         ci = np.abs(dot(d, nf))
         w, refl, ct, eta = shade(inside, ci, U[seg, ids])
@@ -112,6 +118,8 @@ def mitsuba(ms, o, d):
         nm = np.array(si.sh_frame.n).astype(np.float64)
         inside = dot(nm, dd) > 0           # noisebump's side test: unbumped shading normal
         nf = np.where(inside, -nm, nm)
+        if a.bump:
+            nf = bump(nf, np.array(si.p).astype(np.float64), np.full(N, a.bump))
         nin += inside & alive
         ci = np.abs(dot(dd, nf))
         w, refl, ct, eta = shade(inside, ci, U[seg])
@@ -143,7 +151,7 @@ if not a.mitsuba_only:
         mp, mm = vp[:, s].mean(1), vm[:, s].mean(1)
         print(f"  {name:28s} n {s.sum():7d} port {mp.round(5)} mesh {mm.round(5)} "
               f"diff {(100*(mm/mp-1)).round(3)} %")
-    print(f"max_error {a.me} lens {a.lens} density {a.density} refraction {a.refraction} (CRN seed {a.seed}): rays {N}")
+    print(f"bump {a.bump} max_error {a.me} lens {a.lens} density {a.density} refraction {a.refraction} (CRN seed {a.seed}): rays {N}")
     rep("blob-labelled", lab)
     rep("sky-labelled", ~lab)
     rep("all", np.ones(N, bool))

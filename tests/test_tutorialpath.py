@@ -223,3 +223,95 @@ def test_convert_writes_the_measured_sampler_where_the_count_fits(tmp_path, spp,
     r = run_cli("convert", SCENES / "page4.txt", "-o", out, "-q", "--spp", str(spp))
     assert r.returncode == 0, r.stderr
     assert f'<sampler type="{sampler}">  <!-- lens and roulette draws -->' in out.read_text()
+
+
+def _glass_only(text: str) -> str:
+    """Page 4 with the glass blob's bump off, both lights off and sphere 1 no mirror: every
+    path's value is 0.9^k times the cube map along its last ray, or 0 (spheres, ends)."""
+    i = text.index('id="material3"')
+    j = text.index('name="bumplevel"', i)
+    text = text[:j] + text[j:].replace('value="0.1"', 'value="0"', 1)
+    for light in ('"5, 5, 5"', '"0.6, 0.7, 1"'):
+        text = text.replace(f'name="intensity" value={light}', 'name="intensity" value="0, 0, 0"')
+    i = text.index('id="material1"')
+    j = text.index('name="reflection"', i)
+    return text[:j] + text[j:].replace('value="1"', 'value="0"', 1)
+
+
+@pytest.mark.parametrize("max_depth", [4, 11])
+def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
+    """[fact] spec 2.7 in float64 (tests/closed_form.py's Fresnel, written from the spec),
+    evaluated on the integrator's own float32 hits (scene.ray_intersect, the unbumped shading
+    normal's side, spawn_ray) with the sampler's own roulette draws (a second sampler of the
+    same seed, drawn in the integrator's order: next_1d, next_2d per hit), against
+    ``tutorialpath``'s value of the same camera rays, ray by ray: page 4's glass blob with
+    lights off, whose paths stay inside by total internal reflection up to the limit
+    (``max_depth`` rays: the cube map is seen by an escaping ray only, also the last).
+    Issue 16 suspected a colour tilt of the integrator on these paths; it was a float32
+    reduction of the probe's means (docs/results/compare.md)."""
+    mi = llvm
+    import drjit as dr
+    from closed_form import fresnel
+    scene = load(mi, _glass_only((SCENES / "page4.xml").read_text()), SCENES,
+                 max_depth=max_depth, blob0_max_error=0.0865)
+    # pinhole rays from the eye (320, 240, 0) through the blob's edge (page 4's crop
+    # 300..332 x 250..274, spec 2.2), 4 per film position (independent roulette draws each)
+    fx, fy = np.meshgrid(np.arange(600, 664) / 2.0, np.arange(500, 548) / 2.0)
+    film = np.stack([(fx.ravel() - 320) / 320, (fy.ravel() - 240) / 320, np.ones(fx.size)])
+    d = np.repeat(film / np.linalg.norm(film, axis=0), 4, axis=1)
+    n = d.shape[1]
+    f32 = lambda v: mi.Float(np.ascontiguousarray(v, dtype=np.float32))
+    ray0 = mi.Ray3f(mi.Point3f(f32(np.full(n, 320.0)), f32(np.full(n, 240.0)), f32(np.zeros(n))),
+                    mi.Vector3f(*map(f32, d)))
+    arr = lambda v: np.array(v, dtype=np.float64).reshape(3, -1) if np.array(v).ndim > 1 \
+        and np.array(v).shape[0] == 3 else np.array(v, dtype=np.float64).T
+    sampler = mi.load_dict({"type": "independent"})
+    sampler.seed(5, n)
+    real = arr(scene.integrator().sample(scene, sampler, mi.RayDifferential3f(ray0), None,
+                                         True)[0])
+
+    draws = mi.load_dict({"type": "independent"})
+    draws.seed(5, n)
+    blob = [s for s in scene.shapes() if s.is_mesh()][0]
+    env = scene.environment()
+    value, coef, alive = np.zeros((3, n)), np.ones(n), np.ones(n, bool)
+    inside_count = np.zeros(n, int)
+    ray = ray0
+    for depth in range(max_depth):
+        si = scene.ray_intersect(ray)
+        hit = np.array(si.is_valid(), dtype=bool)
+        on_blob = hit & np.array(dr.reinterpret_array(mi.UInt32, si.shape) ==
+                                 dr.reinterpret_array(mi.UInt32, mi.ShapePtr(blob)), dtype=bool)
+        sky = alive & ~hit
+        value[:, sky] += coef[sky] * arr(env.eval(si, mi.Bool(sky)))[:, sky]
+        alive &= on_blob                # spheres: no light, no mirror (0 on every side)
+        if depth == max_depth - 1:
+            break
+        u = np.array(draws.next_1d(), dtype=np.float64)
+        draws.next_2d()
+        v = arr(ray.d)
+        v /= np.linalg.norm(v, axis=0)
+        nrm = arr(si.sh_frame.n)
+        inside = np.sum(nrm * v, axis=0) > 0
+        inside_count += alive & inside
+        nf = np.where(inside, -nrm, nrm)
+        cos_i = np.abs(np.sum(v * nf, axis=0))
+        n1, n2 = np.where(inside, 2.0, 1.0), np.where(inside, 1.0, 2.0)
+        r, cos_t = fresnel(cos_i, n1, n2)
+        rf, tr = 0.9 * r, 0.9 * (1 - r)
+        u = np.where(inside, u * (rf + tr), u)  # inside: the clean limit of the re-draws
+        reflect = u < rf
+        refract = ~reflect & (u < rf + tr)
+        coef = np.where(alive & (reflect | refract), coef * 0.9, 0.0)
+        alive &= coef > 0
+        t = (n1 / n2) * (v + cos_i * nf) - cos_t * nf
+        wo = np.where(reflect, v - 2 * np.sum(v * nf, axis=0) * nf,
+                      t / np.linalg.norm(np.where(alive, t, 1.0), axis=0))
+        ray = si.spawn_ray(mi.Vector3f(*map(f32, np.where(alive, wo, v))))
+
+    assert (inside_count >= min(5, max_depth - 2)).mean() > 0.3    # long paths inside the glass
+    assert real.mean() > 0.01
+    close = np.abs(real - value).max(axis=0) <= 1e-4 * (1 + np.abs(value).max(axis=0))
+    # float32 against float64 directions: a few paths take another branch or hit (chaos)
+    assert close.mean() > 0.99, f"{(~close).sum()} of {n} paths differ"
+    assert np.allclose(real.mean(axis=1), value.mean(axis=1), rtol=5e-4, atol=0)
