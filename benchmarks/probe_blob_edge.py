@@ -1,16 +1,16 @@
 """Per-ray comparison at the page-4 blob's edge: port (exact zone surface, gradient normal)
 against Mitsuba (mesh, interpolated exact normals). Pinhole, bump off, first hit only."""
-import argparse, os, tempfile
+import argparse, os, sys
 import numpy as np
 import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 import drjit as dr
 import codermind  # registers plugins
-from codermind_ref.scene import parse_scene
 from codermind_ref.world import World
 from codermind_ref import camera, quirks as Q
-from codermind_ref.transport import fresnel
 from codermind_ref.vec import dot
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import probe_blob_common as C
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--me", type=float, default=0.086487)
@@ -20,10 +20,7 @@ ap.add_argument("--rect", default="300,250,332,274")
 ap.add_argument("--dump", default="")
 a = ap.parse_args()
 x0, y0, x1, y1 = map(float, a.rect.split(","))
-W = os.environ.get("ROOT", os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-scene = parse_scene(f"{W}/scenes/page4.txt")
-scene.camera.dispersion = 0.0
-scene.materials[3].bumplevel = 0.0
+scene = C.port_scene(bump=0.0, dispersion=0.0)
 world = World(scene)
 fx, fy = np.meshgrid(np.arange(x0, x1, a.step), np.arange(y0, y1, a.step))
 fx, fy = fx.ravel(), fy.ravel()
@@ -31,37 +28,19 @@ o, d = camera.rays(scene, fx, fy)
 t, obj = world.intersect(o, d, np.full(fx.size, 2000.0), Q.CLEAN)
 p = o + t * d
 n, _ = world.normal(p, np.maximum(obj, 0))
-inside = dot(n, d) > 0
-nf = np.where(inside, -n, n)
-cos_i = np.abs(dot(d, nf))
-R, _ = fresnel(np.where(inside, 2.0, 1.0), np.where(inside, 1.0, 2.0), cos_i)
-refl = d - 2 * dot(d, nf) * nf
+g = C.glass(d, n)
+inside, cos_i, R, refl = g.inside, g.ci, g.R, g.mirror
 env = world.environment
 
-xml = open(f"{W}/scenes/page4.xml").read()
-# material3's bumplevel (the last noisebump) -> 0
-i = xml.index('id="material3"'); j = xml.index('bumplevel', i)
-xml = xml[:j] + xml[j:].replace('value="0.1"', 'value="0"', 1)
-xml = xml.replace('name="normals" value="exact"', f'name="normals" value="{a.normals}"')
-open(os.path.join(tempfile.gettempdir(), f"edge_{os.getpid()}.xml"), "w").write(xml)
-mi.file_resolver().append(f"{W}/scenes")
-tmp = os.path.join(tempfile.gettempdir(), f"edge_{os.getpid()}.xml")
-ms = mi.load_file(tmp, blob0_max_error=a.me)
-os.remove(tmp)
-ray = mi.Ray3f(mi.Point3f(*[mi.Float(v.astype(np.float32)) for v in o]),
-               mi.Vector3f(*[mi.Float(v.astype(np.float32)) for v in d]))
+ms = C.load_mitsuba(C.page4_xml(bump=0, normals=a.normals), blob0_max_error=a.me)
+ray = C.mi_ray(o, d)
 si = ms.ray_intersect(ray)
 mesh = si.is_valid() & si.shape.is_mesh()
 tm = np.array(si.t); hm = np.array(mesh)
-pm = np.array(si.p).reshape(3, -1) if np.array(si.p).shape[0] == 3 else np.array(si.p).T
-nm = np.array(si.sh_frame.n); nm = nm if nm.shape[0] == 3 else nm.T
-ng = np.array(si.n); ng = ng if ng.shape[0] == 3 else ng.T
+pm, nm, ng = C.arr(si.p), C.arr(si.sh_frame.n), C.arr(si.n)
 # Mitsuba's side test (noisebump: unbumped shading normal), cos_i in the shading frame
-inside_m = dot(nm, d) > 0
-nmf = np.where(inside_m, -nm, nm)
-cos_m = np.abs(dot(d, nmf))
-Rm, _ = fresnel(np.where(inside_m, 2.0, 1.0), np.where(inside_m, 1.0, 2.0), cos_m)
-refl_m = d - 2 * dot(d, nmf) * nmf
+gm = C.glass(d, nm)
+inside_m, cos_m, Rm, refl_m = gm.inside, gm.ci, gm.R, gm.mirror
 # Mitsuba's own Fresnel (the tutorial BSDF's _fresnel) on the same cos_i, as a check
 bsdf = [s for s in ms.shapes() if s.is_mesh()][0].bsdf().nested
 rm_b, _, _ = bsdf._fresnel(mi.Float(cos_m.astype(np.float32)), mi.Bool(inside_m))
@@ -99,7 +78,7 @@ if a.dump:
              cos_i=cos_i, cos_m=cos_m, inside=inside, inside_m=inside_m)
 # second segment: the reflected ray from each side's hit
 t2, obj2 = world.intersect(p[:, b], refl[:, b], np.full(b.sum(), 2000.0), Q.CLEAN)
-wo = mi.Vector3f(*[mi.Float(v.astype(np.float32)) for v in refl_m])
+wo = C.mi_vector(refl_m)
 ray2 = si.spawn_ray(wo)
 si2 = ms.ray_intersect(ray2)
 h2 = np.array(si2.is_valid())[b]

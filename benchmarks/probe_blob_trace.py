@@ -9,60 +9,28 @@ the real `tutorialpath` integrator against a per-segment replica of it and the s
    direction per segment.
 If (1) == (2) ray by ray, the integrator's loop (depth count, sampler state, escape, limit) is
 the replica; (2) against (3) is the BSDF over whole paths."""
-import argparse, os, tempfile
+import os, sys
 import numpy as np
 import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 import drjit as dr
 import codermind
 from codermind.integrators.tutorialpath import _eval_sample
-from codermind_ref.scene import parse_scene
-from codermind_ref.world import World
-from codermind_ref import camera, quirks as Q
-from codermind_ref.transport import fresnel
-from codermind_ref.vec import dot
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import probe_blob_common as C
 
-ap = argparse.ArgumentParser()
-ap.add_argument("--me", type=float, default=0.086487)
-ap.add_argument("--lens", type=int, default=4)
-ap.add_argument("--rect", default="300,250,332,274")
-ap.add_argument("--seed", type=int, default=0)
+ap = C.arg_parser(4)
 ap.add_argument("--sseed", type=int, default=7)
 ap.add_argument("--max-depth", type=int, default=11)
 ap.add_argument("--save", default="")
 a = ap.parse_args()
-W = os.environ.get("ROOT", os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-scene = parse_scene(f"{W}/scenes/page4.txt")
-world = World(scene)
-x0, y0, x1, y1 = map(int, a.rect.split(","))
-sx, sy = np.meshgrid(np.arange(2 * x0, 2 * x1) / 2.0, np.arange(2 * y0, 2 * y1) / 2.0)
-sx, sy = sx.ravel(), sy.ravel()
-o0, d0 = camera.rays(scene, sx, sy)
-_, obj0 = world.intersect(o0, d0, np.full(sx.size, 2000.0), Q.CLEAN)
-rng = np.random.default_rng(a.seed)
-k = max(a.lens, 1)
-fx, fy = np.repeat(sx, k), np.repeat(sy, k)
-lab = np.repeat(obj0 == 3, k)
-o, d = camera.rays(scene, fx, fy, rng.random(fx.size), rng.random(fx.size)) if a.lens else \
-    camera.rays(scene, fx, fy)
+world, o, d, lab = C.crop_setup(a)
 N = o.shape[1]
-
-xml = open(f"{W}/scenes/page4.xml").read()
-i = xml.index('id="material3"'); j = xml.index('bumplevel', i)
-xml = xml[:j] + xml[j:].replace('value="0.1"', 'value="0"', 1)
-xml = xml.replace('name="intensity" value="5, 5, 5"', 'name="intensity" value="0, 0, 0"')
-xml = xml.replace('name="intensity" value="0.6, 0.7, 1"', 'name="intensity" value="0, 0, 0"')
-i = xml.index('id="material1"'); j = xml.index('name="reflection"', i)
-xml = xml[:j] + xml[j:].replace('value="1"', 'value="0"', 1)
-tmp = os.path.join(tempfile.gettempdir(), f"trace_{os.getpid()}.xml")
-open(tmp, "w").write(xml)
-mi.file_resolver().append(f"{W}/scenes")
-ms = mi.load_file(tmp, blob0_max_error=a.me, max_depth=a.max_depth)
-os.remove(tmp)
+ms = C.load_mitsuba(C.page4_xml(bump=0, lights=False, mirror=False),
+                    blob0_max_error=a.me, max_depth=a.max_depth)
 integ = ms.integrator()
-F = lambda v: mi.Float(np.ascontiguousarray(v, dtype=np.float32))
-A = lambda v: (lambda x: x if x.ndim == 1 or x.shape[0] == 3 else x.T)(np.array(v))
-ray0 = mi.RayDifferential3f(mi.Point3f(*map(F, o)), mi.Vector3f(*map(F, d)))
+A = C.arr
+ray0 = C.mi_ray(o, d, differential=True)
 
 # 1. the real integrator
 sampler = mi.load_dict({"type": "independent"})
@@ -108,18 +76,8 @@ print("seg  on_blob  inside  TIR   reflect  refract  end   | event mismatch  dir
 for s, r in enumerate(rec[:-1]):
     on = r["alive"] & r["mesh"]
     dd = r["d"] / np.linalg.norm(r["d"], axis=0)
-    nm = r["ns"]
-    inside = dot(nm, dd) > 0
-    nf = np.where(inside, -nm, nm)
-    ci = np.abs(dot(dd, nf))
-    n1, n2 = np.where(inside, 2.0, 1.0), np.where(inside, 1.0, 2.0)
-    R, ct = fresnel(n1, n2, ci)
-    rf, tr = 0.9 * R, 0.9 * (1 - R)
-    uu = np.where(inside, r["u"] * np.minimum(rf + tr, 1), r["u"])
-    refl = uu < rf; refr = ~refl & (uu < rf + tr)
-    eta = n1 / n2
-    dref = eta * (dd + ci * nf) - ct * nf; dref /= np.linalg.norm(dref, axis=0)
-    wo_m = np.where(refl, dd - 2 * dot(dd, nf) * nf, dref)
+    g = C.glass(dd, r["ns"], r["u"])
+    inside, R, ci, refl, refr, wo_m = g.inside, g.R, g.ci, g.refl, g.refr, g.wo
     ev_m = np.where(refl, 0, np.where(refr, 1, 2))
     real_refl = (r["w"] > 0) & (r["typ"] == int(mi.BSDFFlags.DeltaReflection))
     real_refr = (r["w"] > 0) & (r["typ"] == int(mi.BSDFFlags.DeltaTransmission))
@@ -139,33 +97,8 @@ if a.save:
 
 # 4. the spec's formulas in float64 along whole paths (probe_blob_crn.py's Mitsuba side: own
 #    directions, Mitsuba's hits and spawn_ray), with the sampler's u of each segment
-env = world.environment
-val = np.zeros((3, N)); coef = np.ones(N); alive = np.ones(N, bool)
-ray = mi.Ray3f(ray0)
-for s in range(a.max_depth):
-    si = ms.ray_intersect(ray)
-    valid = A(si.is_valid()).astype(bool); mesh = A(si.is_valid() & si.shape.is_mesh()).astype(bool)
-    dd = A(ray.d).astype(np.float64)
-    miss = alive & ~valid
-    val[:, miss] += coef[miss] * env.lookup(dd[:, miss])
-    alive = alive & mesh
-    if s == a.max_depth - 1:
-        break
-    nm = A(si.sh_frame.n).astype(np.float64)
-    inside = dot(nm, dd) > 0
-    nf = np.where(inside, -nm, nm)
-    ci = np.abs(dot(dd, nf))
-    n1, n2 = np.where(inside, 2.0, 1.0), np.where(inside, 1.0, 2.0)
-    R, ct = fresnel(n1, n2, ci)
-    rf, tr = 0.9 * R, 0.9 * (1 - R)
-    uu = np.where(inside, rec[s]["u"] * np.minimum(rf + tr, 1), rec[s]["u"])
-    refl = uu < rf; refr = ~refl & (uu < rf + tr)
-    coef = np.where(alive, coef * np.where(refl | refr, 0.9, 0.0), 0.0)
-    alive = alive & (coef > 0)
-    eta = n1 / n2
-    dref = eta * (dd + ci * nf) - ct * nf; dref /= np.linalg.norm(dref, axis=0)
-    wo = np.where(refl, dd - 2 * dot(dd, nf) * nf, dref)
-    ray = si.spawn_ray(mi.Vector3f(*map(F, wo)))
+val, _, _ = C.trace_mitsuba(ms, world.environment, mi.Ray3f(ray0),
+                            lambda s, ids, d, n, p: C.glass(d, n, rec[s]["u"]), a.max_depth)
 dm = np.abs(val - L_int).max(0)
 print(f"4 vs 1: float64 formulas on Mitsuba's hits with the sampler's u: rays with |dL| > 1e-4: "
       f"{(dm > 1e-4).sum()} of {N}; blob means model {val[:, lab].mean(1).round(6)} "
