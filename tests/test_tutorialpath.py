@@ -263,8 +263,7 @@ def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
     f32 = lambda v: mi.Float(np.ascontiguousarray(v, dtype=np.float32))
     ray0 = mi.Ray3f(mi.Point3f(f32(np.full(n, 320.0)), f32(np.full(n, 240.0)), f32(np.zeros(n))),
                     mi.Vector3f(*map(f32, d)))
-    arr = lambda v: np.array(v, dtype=np.float64).reshape(3, -1) if np.array(v).ndim > 1 \
-        and np.array(v).shape[0] == 3 else np.array(v, dtype=np.float64).T
+    arr = lambda v: np.array(v, dtype=np.float64)    # Dr.Jit 3-vectors: shape (3, n)
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(5, n)
     real = arr(scene.integrator().sample(scene, sampler, mi.RayDifferential3f(ray0), None,
