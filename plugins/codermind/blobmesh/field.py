@@ -23,8 +23,8 @@ import numpy as np
 ZONE_BOUNDS = 10.0 / np.arange(1, 10)
 # Slope and intercept of f in x, indexed by q = min(int(10/x), 9): q = 0 is x >= 10 (f = 0),
 # q = k + 1 is zone k. These are the tutorial's cumulative zone tables.
-_SLOPE = np.array([0.0, -0.04, -0.06, -0.12, -0.20, -0.30, -0.42, -0.56, -0.72, -0.90])
-_INTERCEPT = np.array([0.0, 0.4, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9])
+SLOPE = np.array([0.0, -0.04, -0.06, -0.12, -0.20, -0.30, -0.42, -0.56, -0.72, -0.90])
+INTERCEPT = np.array([0.0, 0.4, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9])
 
 FIELDS = ("tutorial", "exact")
 _TINY = 1e-30
@@ -50,7 +50,7 @@ class BlobField:
         if self.kind == "exact":
             return 1.0 / np.maximum(x, _TINY)
         q = zone_index(x)
-        return _INTERCEPT[q] + _SLOPE[q] * x
+        return INTERCEPT[q] + SLOPE[q] * x
 
     def df(self, x: np.ndarray, mean_at_bounds: bool = False) -> np.ndarray:
         """df/dx. For the zone field that of the zone of x (one-sided at a boundary), or with
@@ -58,13 +58,13 @@ class BlobField:
         if self.kind == "exact":
             return -1.0 / np.maximum(x * x, _TINY)
         q = zone_index(x)
-        s = _SLOPE[q]
+        s = SLOPE[q]
         if mean_at_bounds:
             r = 10.0 / np.maximum(x, _TINY)
             k = np.rint(r)
             at = (np.abs(r - k) <= 1e-9 * k) & (k >= 1) & (k <= 9)
             k = k.astype(np.intp)
-            s = np.where(at, 0.5 * (_SLOPE[np.clip(k - 1, 0, 9)] + _SLOPE[np.clip(k, 0, 9)]), s)
+            s = np.where(at, 0.5 * (SLOPE[np.clip(k - 1, 0, 9)] + SLOPE[np.clip(k, 0, 9)]), s)
         return s
 
     def support_x(self) -> float:

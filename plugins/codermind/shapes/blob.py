@@ -10,6 +10,7 @@ import numpy as np
 
 from ..exposed import exposed, scalar
 from ..blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh.field import INTERCEPT, SLOPE
 from ..params import loose_number
 
 _CENTER = re.compile(r"center(\d+)$")
@@ -240,6 +241,122 @@ class Blob(mi.Mesh):
         u1, u2 = u1 @ linear.T, u2 @ linear.T
         moved = [f32(v[:, k]) + f32(u1[:, k]) * s1 + f32(u2[:, k]) * s2 for k in range(3)]
         return dr.ravel(mi.Point3f(*moved))
+
+    # -- hits on the exact surface (called by the tutorialpath integrator) ----------------
+    #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
+    #: so 4 take a 0.1-cell start to float32 rounding (tests/test_blob_plugin.py)
+    REFINE_STEPS = 4
+    #: the tutorial's blob epsilon (spec 2.3, world units): a crossing this close to a ray's
+    #: origin is the surface the ray leaves (tutorialpath's exact_hits)
+    SELF_HIT = 0.01
+
+    def exact_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f,
+                  active: mi.Bool) -> mi.SurfaceInteraction3f:
+        """``si`` (a hit of ``ray`` on this mesh) moved onto the exact surface, where the
+        field along the ray crosses 1 near the mesh's t: Newton's method on
+        F(o + t d) - 1 from the mesh's t, in object space (an affine map keeps t).
+
+        Changed where the iteration converges, within ``2 max_error / |cos|`` of the
+        mesh's t, on the side the mesh was hit from (the field rises along the ray where
+        it enters): ``t`` (which may come out <= 0: the crossing lies behind the ray's
+        origin), ``p``, the geometric normal ``n`` and the shading frame (the ``normals``
+        option's normal at the new point, also for ``n``; ``flat`` keeps the facet's),
+        with ``wi`` in that frame. Elsewhere (grazing rays that hit the mesh but not the
+        surface, a mesh without vertices) ``si`` is returned unchanged. The move is
+        detached: ``p`` keeps the mesh's derivatives (vertex positions), if any."""
+        if len(self.centers) == 0:
+            return si
+        linear = self.matrix[:3, :3]
+        inv = np.linalg.inv(linear)
+        shift = self.matrix[:3, 3]
+        mat = lambda m: mi.ScalarMatrix3f([[float(x) for x in row] for row in m])  # noqa: E731
+        to_obj, normal_to_world = mat(inv), mat(inv.T)
+        p0 = dr.detach(si.p)
+        po = to_obj @ (mi.Vector3f(p0) - mi.ScalarVector3f(*map(float, shift)))
+        do = to_obj @ mi.Vector3f(dr.detach(ray.d))
+        rel = [po - mi.ScalarVector3f(*map(float, c)) for c in self.centers]
+        inv_r2 = 1.0 / (self.radius * self.radius)
+        entering = dr.dot(dr.detach(si.n), dr.detach(ray.d)) < 0
+
+        def residual(s):
+            """(F - 1, dF/ds) at o + (t + s) d."""
+            value, slope = mi.Float(-1.0), mi.Float(0.0)
+            for r in rel:
+                q = r + s * do
+                x = dr.squared_norm(q) * inv_r2
+                f, df = self._zone(x)
+                value += f
+                slope += df * (2.0 * inv_r2) * dr.dot(q, do)
+            return value, slope
+
+        s = mi.Float(0.0)
+        step = mi.Float(0.0)
+        for _ in range(self.REFINE_STEPS + 1):
+            g, dg = residual(s)
+            step = dr.select(dg != 0, g / dr.select(dg != 0, dg, 1.0), 0.0)
+            s = s - step
+        s = s + step                                    # the last step only measured
+        cos = dr.abs(dr.dot(dr.detach(si.n), dr.detach(ray.d)))
+        bound = 2.0 * self.max_error / dr.maximum(cos, 0.05)
+        _, slope = residual(s)
+        ok = active & dr.isfinite(s) & (dr.abs(s) <= bound) & \
+            (dr.abs(step) <= 1e-3 * self.max_error + 1e-6 * dr.abs(si.t)) & \
+            ((slope > 0) == entering) & (slope != 0)
+        s = dr.select(ok, s, 0.0)
+
+        frame = si.sh_frame
+        if self.normals != "flat":
+            n = mi.Vector3f(0.0)
+            for r in rel:
+                q = r + s * do
+                d2 = dr.squared_norm(q)
+                if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10)
+                    w = dr.select(d2 > 0.001, self.radius ** 2 / dr.square(d2), 0.0)
+                else:                               # -grad F: outward
+                    w = -self._zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
+                n += w * q
+            n = normal_to_world @ n
+            ok &= dr.squared_norm(n) > 0
+            frame = mi.Frame3f(dr.normalize(dr.select(ok, n, si.sh_frame.n)))
+
+        out = mi.SurfaceInteraction3f(si)
+        out.t = dr.select(ok, si.t + s, si.t)
+        out.p = dr.select(ok, si.p + dr.detach(mi.Vector3f(ray.d)) * s, si.p)
+        if self.normals != "flat":
+            out.sh_frame = mi.Frame3f(dr.select(ok, frame.s, si.sh_frame.s),
+                                      dr.select(ok, frame.t, si.sh_frame.t),
+                                      dr.select(ok, frame.n, si.sh_frame.n))
+            out.wi = dr.select(ok, out.sh_frame.to_local(si.sh_frame.to_world(si.wi)), si.wi)
+            out.n = dr.select(ok, frame.n, si.n)
+        return out
+
+    def left_surface(self, ray: mi.Ray3f, mesh_si: mi.SurfaceInteraction3f,
+                     exact_si: mi.SurfaceInteraction3f) -> mi.Bool:
+        """Lanes whose hit (``mesh_si`` on the mesh, ``exact_si`` from ``exact_hit``) is the
+        surface the ray leaves, for rays that leave exact points without an offset: the
+        exact crossing within ``SELF_HIT`` of the origin, or, where ``exact_hit`` found no
+        crossing, the mesh hit within ``SELF_HIT`` plus the mesh's own reach
+        (2 max_error / |cos|) of it."""
+        cos = dr.abs(dr.dot(dr.detach(mesh_si.n), dr.detach(ray.d)))
+        reach = self.SELF_HIT + 2.0 * self.max_error / dr.maximum(cos, 0.05)
+        unmoved = exact_si.t == mesh_si.t
+        return (exact_si.t <= self.SELF_HIT) | (unmoved & (mesh_si.t <= reach))
+
+    def _zone(self, x: mi.Float) -> tuple[mi.Float, mi.Float]:
+        """f(x) and f'(x) of one source (the ``field`` option)."""
+        if self.field == "exact":
+            inv = 1.0 / dr.maximum(x, 1e-30)
+            return inv, -dr.square(inv)
+        # the zone field: q >= k (x <= 10/k) adds the k-th increments of the slope and
+        # intercept tables (blobmesh.field), as the tutorial accumulates its zones
+        f, df = mi.Float(0.0), mi.Float(0.0)
+        for k in range(1, 10):
+            inner = x <= 10.0 / k
+            ds = float(SLOPE[k] - SLOPE[k - 1])
+            di = float(INTERCEPT[k] - INTERCEPT[k - 1])
+            f += dr.select(inner, di + ds * x, 0.0)
+            df += dr.select(inner, ds, 0.0)
+        return f, df
 
     def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
         params = mi.traverse(self)
