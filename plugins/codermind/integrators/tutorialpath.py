@@ -33,6 +33,13 @@ def _eval_sample(bsdf: mi.BSDF, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f
     return values, bs, weight
 
 
+def _is(shape_ptr, shape: mi.Shape) -> mi.Bool:
+    """Lanes whose hit is on ``shape`` (a Python object in scalar variants)."""
+    if not dr.is_jit_v(mi.Float):
+        return shape_ptr is not None and shape_ptr == shape
+    return shape_ptr == mi.ShapePtr(shape)
+
+
 class TutorialIntegrator(mi.SamplingIntegrator):
     r"""
     .. _integrator-tutorialpath:
@@ -46,6 +53,17 @@ class TutorialIntegrator(mi.SamplingIntegrator):
        - |int|
        - Longest path depth, as Mitsuba's ``path`` counts it (1: only what the camera rays
          see; -1: unlimited). The tutorial's 10 segments are 11 (Default: 11)
+
+     * - exact_hits
+       - |bool|
+       - Move every hit on a shape that knows its exact surface (the :monosp:`blob`
+         mesh) from the mesh onto that surface (``Blob.exact_hit``: a few Newton steps
+         along the ray): position, normals and ``wi``; rays leave from there. A mesh hit
+         whose exact crossing lies within the tutorial's blob epsilon of the ray's origin
+         (0.01, spec 2.3: the surface the ray left; rays leave exact points without
+         Mitsuba's spawn offset, as the tutorial's do) is passed through without shading
+         or a segment. ``false``: the mesh's hits, as :monosp:`path` sees them
+         (Default: ``true``)
 
      * - quirks
        - |string|
@@ -74,7 +92,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       ``strict`` refuses such emitters (the tutorial has none) with a one-line error.
 
     **clean**: the same expected value per pixel as :monosp:`path` (``rr_depth`` >=
-    ``max_depth``) on every scene; with one delta light and nothing random the same
+    ``max_depth``, ``exact_hits`` = ``false``; with ``true``, path's value on the exact
+    surface instead of its mesh) on every scene; with one delta light and nothing random the same
     value per sample.
 
     **strict** (spec 2.6, 2.7; every BSDF must be :monosp:`tutorial`, optionally in
@@ -107,6 +126,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
             <integrator type="tutorialpath">
                 <integer name="max_depth" value="11"/>
+                <boolean name="exact_hits" value="true"/>
                 <string name="quirks" value="clean"/>
             </integrator>
     """
@@ -120,6 +140,10 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         if isinstance(depth, bool) or not isinstance(depth, int) or depth < -1:
             raise ValueError(f"tutorialpath: 'max_depth' must be an integer >= -1, got {depth!r}")
         self.max_depth = depth
+        self.exact_hits = props.get("exact_hits", True)
+        if not isinstance(self.exact_hits, bool):
+            raise ValueError(f"tutorialpath: 'exact_hits' must be a boolean, got "
+                             f"{self.exact_hits!r}")
         self.quirks = str(props.get("quirks", "clean"))
         if self.quirks not in QUIRKS:
             raise ValueError(f"tutorialpath: 'quirks' must be 'clean' or 'strict', got "
@@ -149,6 +173,12 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                                      f"{shape.id()!r} has {type(bsdf).__name__}")
         return delta, bool(sampled)
 
+    def _exact_shapes(self, scene: mi.Scene) -> list:
+        """The scene's shapes that can move a hit onto their exact surface."""
+        if not self.exact_hits:
+            return []
+        return [s for s in scene.shapes() if hasattr(s, "exact_hit")]
+
     @staticmethod
     def _environment(scene: mi.Scene, d: mi.Vector3f, active: mi.Bool) -> mi.Spectrum:
         """The environment emitter's radiance from direction ``d`` (world)."""
@@ -167,6 +197,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                ) -> tuple[mi.Spectrum, mi.Bool, list[mi.Float]]:
         strict = self.quirks == "strict"
         deltas, generic = self._emitters(scene)
+        exact = self._exact_shapes(scene)
+        has_exact = len(exact) > 0
         max_depth = mi.UInt32(0xFFFFFFFF if self.max_depth < 0 else self.max_depth)
         segments = mi.Float(float("inf") if self.max_depth < 0 else self.max_depth - 1)
         ctx = mi.BSDFContext()
@@ -188,6 +220,20 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All,
                                      coherent=(depth == 0), active=active)
             valid_ray |= (depth == 0) & si.is_valid()
+            # hits on the exact surface. Rays leave exact points without Mitsuba's spawn
+            # offset (about 0.05 at the tutorial's scale of ~500 units; the tutorial offsets
+            # nothing), so a crossing within the tutorial's blob epsilon is the surface the
+            # ray left (spec 2.3: roots count only beyond 0.01): passed through
+            from_mesh = si
+            behind = mi.Bool(False)
+            on_exact = mi.Bool(False)
+            for shape in exact:
+                on = active & si.is_valid() & _is(si.shape, shape)
+                moved = shape.exact_hit(ray, si, on)
+                behind |= on & shape.left_surface(ray, si, moved)
+                si = moved
+                on_exact |= on
+            active &= _not(behind)
 
             # Emission seen by this ray: the environment on escape, an area light on a hit
             emitter = si.emitter(scene)
@@ -295,14 +341,23 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 n1 = dr.select(_not(unbent) & refracted & active_next & (dr.max(weight) > 0), n2, n1)
                 weight = dr.select(stuck, 0.0, weight)
 
-            beta *= weight
+            beta = dr.select(behind, beta, beta * weight)
             active_next &= dr.max(dr.abs(beta)) != 0
             if dr.hint(generic, mode="scalar"):
                 # only the MIS of sampled emitters reads them (else loop-invariant: not carried)
                 prev_si = mi.Interaction3f(si)
                 prev_pdf = bs.pdf
                 prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
-            ray = si.spawn_ray(wo_world)
+            if dr.hint(has_exact, mode="scalar"):
+                # past the mesh along the ray itself (the line is kept), or from the exact point
+                scale = 1.0 + dr.max(dr.abs(from_mesh.p))
+                through = mi.Ray3f(from_mesh.p + ray.d * (scale * mi.math.RayEpsilon * 0.1),
+                                   ray.d, ray.time, ray.wavelengths)
+                leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
+                ray = dr.select(behind, through,
+                                dr.select(on_exact, leave, si.spawn_ray(wo_world)))
+            else:
+                ray = si.spawn_ray(wo_world)
 
             if dr.hint(strict, mode="scalar"):
                 # the segment limit: the cube map along the next direction, not traced
@@ -310,10 +365,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 L += dr.select(at_limit, beta * self._environment(scene, wo_world, at_limit),
                                0.0)
                 active_next &= _not(at_limit)
-                depth = mi.UInt32(dr.minimum(mi.Float(depth) + step, 4.0e9))
+                depth = dr.select(behind, depth,
+                                  mi.UInt32(dr.minimum(mi.Float(depth) + step, 4.0e9)))
             else:
-                depth += 1
-            active = active_next
+                depth = dr.select(behind, depth, depth + 1)
+            active = active_next | behind
 
         return L, valid_ray, []
 
@@ -322,9 +378,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("max_depth", self.max_depth, mi.ParamFlags.NonDifferentiable)
+        callback.put("exact_hits", self.exact_hits, mi.ParamFlags.NonDifferentiable)
 
     def to_string(self) -> str:
-        return f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  quirks = {self.quirks}\n]"
+        return (f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  exact_hits = "
+                f"{self.exact_hits},\n  quirks = {self.quirks}\n]")
 
 
 mi.register_integrator("tutorialpath", lambda props, cls=TutorialIntegrator: cls(props))
