@@ -56,9 +56,14 @@ def port_scene(bump=None, refraction=None, lights=True, mirror=True, mirror_bump
 
 
 def page4_xml(bump=None, refraction=None, lights=True, mirror=True, mirror_bump=None,
-              normals=None):
-    """page4.xml's text with the same edits as port_scene (and the blob's normals mode)."""
+              normals=None, exact_hits=None):
+    """page4.xml's text with the same edits as port_scene (and the blob's normals mode, the
+    integrator's exact_hits)."""
     xml = open(f"{ROOT}/scenes/page4.xml").read()
+    if exact_hits is not None:
+        tag = '<integrator type="tutorialpath">'
+        assert tag in xml
+        xml = xml.replace(tag, f'{tag}<boolean name="exact_hits" value="{str(exact_hits).lower()}"/>', 1)
     i = xml.index('id="material3"')
     if bump is not None:
         j = xml.index('bumplevel', i)
@@ -209,16 +214,33 @@ def mi_ray(o, d, differential=False):
     return cls(mi.Point3f(*map(mi_float, o)), mi_vector(d))
 
 
-def trace_mitsuba(ms, env, ray, step, rays=11):
+def trace_mitsuba(ms, env, ray, step, rays=11, exact_hits=False):
     """The same paths on Mitsuba's mesh, with our own directions: scene.ray_intersect from
     `ray`, step(seg, ids, d, n, p) with n the unbumped shading normal at Mitsuba's hit (all N
-    lanes, dead ones included), spawn_ray of wo. Returns (val, escape segment, inside hits)."""
+    lanes, dead ones included), spawn_ray of wo. `exact_hits`: the hits moved by the blob's
+    exact_hit, rays leaving from there, and a hit whose crossing lies at the ray's origin
+    passed through (Blob.left_surface, along the ray; rays leave exact points without
+    Mitsuba's spawn offset, as tutorialpath's exact_hits). Returns (val, escape segment, inside
+    hits)."""
+    import drjit as dr
+    import mitsuba as mi
+    blob = [s for s in ms.shapes() if hasattr(s, "exact_hit")][0]
     N = arr(ray.o).shape[1]
     val = np.zeros((3, N)); coef = np.ones(N)
     segs = np.zeros(N, int); nin = np.zeros(N, int)
     alive = np.ones(N, bool); ids = np.arange(N)
     for seg in range(rays):
         si = ms.ray_intersect(ray)
+        hit = si
+        for _ in range(64 if exact_hits else 0):
+            hit = blob.exact_hit(ray, si, si.is_valid() & si.shape.is_mesh())
+            behind = si.is_valid() & si.shape.is_mesh() & blob.left_surface(ray, si, hit)
+            if not dr.any(behind):
+                break
+            scale = 1.0 + dr.max(dr.abs(si.p))
+            ray = dr.select(behind, mi.Ray3f(si.p + ray.d * (scale * mi.math.RayEpsilon * 0.1),
+                                             ray.d), ray)
+            si = ms.ray_intersect(ray)
         valid = arr(si.is_valid()).astype(bool)
         mesh = arr(si.is_valid() & si.shape.is_mesh()).astype(bool)
         dd = arr(ray.d).astype(np.float64)
@@ -228,12 +250,13 @@ def trace_mitsuba(ms, env, ray, step, rays=11):
         alive = alive & mesh
         if seg == rays - 1 or not alive.any():
             break
-        nm = arr(si.sh_frame.n).astype(np.float64)
-        g = step(seg, ids, dd, nm, arr(si.p).astype(np.float64))
+        nm = arr(hit.sh_frame.n).astype(np.float64)
+        g = step(seg, ids, dd, nm, arr(hit.p).astype(np.float64))
         nin += g.inside & alive
         coef = np.where(alive, coef * g.w, 0.0)
         alive = alive & (coef > 0)
-        ray = si.spawn_ray(mi_vector(g.wo))
+        ray = (mi.Ray3f(hit.p, mi_vector(g.wo)) if exact_hits
+               else si.spawn_ray(mi_vector(g.wo)))
     return val, segs, nin
 
 

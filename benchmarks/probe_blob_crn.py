@@ -22,6 +22,8 @@ ap.add_argument("--mitsuba-only", action="store_true")
 ap.add_argument("--bump", type=float, default=0.0,
                 help="Bumplevel on both geometries: the port's numpy bump (spec 2.9) of the "
                      "flipped normal at each side's own hit point")
+ap.add_argument("--exact-hits", action="store_true",
+                help="the mesh side shades at the blob's exact_hit (tutorialpath's exact_hits)")
 a = ap.parse_args()
 world, o, d, lab = C.crop_setup(a, bump=0.0)
 env = world.environment
@@ -35,7 +37,7 @@ def port(o, d):
     return C.trace_port(world, o, d, step, a.rays)
 
 def mitsuba(ms, o, d):
-    return C.trace_mitsuba(ms, env, C.mi_ray(o, d), step, a.rays)
+    return C.trace_mitsuba(ms, env, C.mi_ray(o, d), step, a.rays, a.exact_hits)
 
 ms = C.load_mitsuba(C.page4_xml(bump=0), blob0_max_error=a.me)
 acc = []
@@ -48,5 +50,5 @@ print(f"mine(mitsuba) rays {a.rays} reps {a.reps}: blob-labelled mean {acc.mean(
 if not a.mitsuba_only:
     vp, sp, ip = port(o, d)
     vm, sm, im = mitsuba(ms, o, d)
-    print(f"bump {a.bump} max_error {a.me} lens {a.lens} density {a.density} refraction {a.refraction} (CRN seed {a.seed}): rays {N}")
+    print(f"exact_hits {a.exact_hits} bump {a.bump} max_error {a.me} lens {a.lens} density {a.density} refraction {a.refraction} (CRN seed {a.seed}): rays {N}")
     C.report_port_mesh(vp, sp, ip, vm, sm, im, lab)

@@ -19,6 +19,8 @@ ap.add_argument("--max-depth", type=int, default=11)  # both sides: K rays (port
 ap.add_argument("--no-mirror", action="store_true")
 ap.add_argument("--mirror-bump", type=float, default=0.1)
 ap.add_argument("--port-reps", type=int, default=-1)
+ap.add_argument("--exact-hits", choices=("true", "false"), default=None,
+                help="the integrator's exact_hits (default: the scene's)")
 ap.add_argument("--float32-means", action="store_true", help="also print the old float32 reduction")
 a = ap.parse_args()
 transport.MAX_SEGMENTS = a.max_depth - 1
@@ -26,7 +28,7 @@ edits = dict(bump=a.bump, refraction=a.refraction, lights=a.lights, mirror=not a
              mirror_bump=a.mirror_bump)
 world, o, d, lab = C.crop_setup(a, **edits)
 N = o.shape[1]
-ms = C.load_mitsuba(C.page4_xml(**edits), blob0_max_error=a.me, max_depth=a.max_depth)
+ms = C.load_mitsuba(C.page4_xml(**edits, exact_hits=a.exact_hits), blob0_max_error=a.me, max_depth=a.max_depth)
 integ = ms.integrator()
 ray = C.mi_ray(o, d, differential=True)
 P, M = [], []
@@ -47,7 +49,7 @@ if a.float32_means:
     for name, s in (("blob-labelled", lab), ("sky-labelled", ~lab)):
         print(f"  float32 reduction as before (issue 16): {name} mitsuba {M32[:, :, s].mean((0, 2)).round(5)} "
               f"float64 {M[:, :, s].mean((0, 2)).round(5)}")
-print(f"max_depth {a.max_depth} no_mirror {a.no_mirror} mirror_bump {a.mirror_bump} max_error {a.me} lens {a.lens} reps {a.reps} refraction {a.refraction} lights {a.lights} bump {a.bump}: rays {N}")
+print(f"exact_hits {a.exact_hits} max_depth {a.max_depth} no_mirror {a.no_mirror} mirror_bump {a.mirror_bump} max_error {a.me} lens {a.lens} reps {a.reps} refraction {a.refraction} lights {a.lights} bump {a.bump}: rays {N}")
 for name, s in (("blob-labelled", lab), ("sky-labelled", ~lab)):
     mp, mm = P[:, :, s].mean((0, 2)), M[:, :, s].mean((0, 2))
     vp = P[:, :, s].var(0, ddof=1).sum(1) / (P.shape[0] * s.sum() ** 2)
