@@ -135,7 +135,8 @@ def main() -> int:
     # the same transport on the blob's mesh hits (exact_hits false): the refinement's cost
     tag = '<integrator type="tutorialpath">'
     xml_mesh = folder / "page4_mesh.xml"
-    xml_mesh.write_text(xml.read_text().replace(
+    xml_mesh.write_text(re.sub(r'<boolean name="exact_hits" value="\w+"/>', "",
+                               xml.read_text()).replace(
         tag, tag + '<boolean name="exact_hits" value="false"/>', 1))
     scene_mesh, _ = tr.load(xml_mesh)
     lights = [m for m in args.lights.split(",") if m]

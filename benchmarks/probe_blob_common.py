@@ -6,6 +6,7 @@ The scripts import it from their own folder (sys.path of __file__'s parent). Mit
 imported only inside the functions that need it (probe_blob_portcrn.py runs without it), after
 the script has set its variant."""
 import argparse
+import re
 import os
 import tempfile
 from types import SimpleNamespace
@@ -63,6 +64,7 @@ def page4_xml(bump=None, refraction=None, lights=True, mirror=True, mirror_bump=
     if exact_hits is not None:
         tag = '<integrator type="tutorialpath">'
         assert tag in xml
+        xml = re.sub(r'<boolean name="exact_hits" value="\w+"/>', "", xml)
         xml = xml.replace(tag, f'{tag}<boolean name="exact_hits" value="{str(exact_hits).lower()}"/>', 1)
     i = xml.index('id="material3"')
     if bump is not None:

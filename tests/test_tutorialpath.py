@@ -242,6 +242,7 @@ def _glass_only(text: str) -> str:
     text = text[:j] + text[j:].replace('value="1"', 'value="0"', 1)
     # the mesh's own hits (the probe below traces scene.ray_intersect with spawn_ray)
     tag = '<integrator type="tutorialpath">'
+    text = re.sub(r'<boolean name="exact_hits" value="\w+"/>', "", text)
     return text.replace(tag, tag + '<boolean name="exact_hits" value="false"/>', 1)
 
 

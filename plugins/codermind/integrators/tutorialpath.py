@@ -180,6 +180,28 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return [s for s in scene.shapes() if hasattr(s, "exact_hit")]
 
     @staticmethod
+    def _refine(exact: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
+                ) -> tuple[mi.SurfaceInteraction3f, mi.Bool, mi.Bool]:
+        """``si`` moved onto the exact surface of the shape it hit, if that shape is one of
+        ``exact``; the lanes whose hit is the surface the ray leaves; the lanes moved."""
+        behind = mi.Bool(False)
+        on_exact = mi.Bool(False)
+        for shape in exact:
+            on = active & si.is_valid() & _is(si.shape, shape)
+            moved = shape.exact_hit(ray, si, on)
+            behind |= on & shape.left_surface(ray, si, moved)
+            si = moved
+            on_exact |= on
+        return si, behind, on_exact
+
+    @staticmethod
+    def _past(ray: mi.Ray3f, hit: mi.SurfaceInteraction3f) -> mi.Ray3f:
+        """``ray`` from just past ``hit`` along itself: the same line, the hit left behind."""
+        scale = 1.0 + dr.max(dr.abs(hit.p))
+        return mi.Ray3f(hit.p + ray.d * (scale * mi.math.RayEpsilon * 0.1), ray.d, ray.time,
+                        ray.wavelengths)
+
+    @staticmethod
     def _environment(scene: mi.Scene, d: mi.Vector3f, active: mi.Bool) -> mi.Spectrum:
         """The environment emitter's radiance from direction ``d`` (world)."""
         env = scene.environment()
@@ -223,16 +245,22 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             # hits on the exact surface. Rays leave exact points without Mitsuba's spawn
             # offset (about 0.05 at the tutorial's scale of ~500 units; the tutorial offsets
             # nothing), so a crossing within the tutorial's blob epsilon is the surface the
-            # ray left (spec 2.3: roots count only beyond 0.01): passed through
-            from_mesh = si
+            # ray left (spec 2.3: roots count only beyond 0.01): passed through, once here
+            # (one more intersection, cheaper than a turn of the loop), then by the loop
             behind = mi.Bool(False)
             on_exact = mi.Bool(False)
-            for shape in exact:
-                on = active & si.is_valid() & _is(si.shape, shape)
-                moved = shape.exact_hit(ray, si, on)
-                behind |= on & shape.left_surface(ray, si, moved)
-                si = moved
-                on_exact |= on
+            from_mesh = si
+            if dr.hint(has_exact, mode="scalar"):
+                si, behind, on_exact = self._refine(exact, ray, si, active)
+                past = self._past(ray, from_mesh)
+                si2 = scene.ray_intersect(past, ray_flags=mi.RayFlags.All, coherent=False,
+                                          active=behind)
+                from_mesh = dr.select(behind, si2, from_mesh)
+                si2, behind2, on_exact2 = self._refine(exact, past, si2, behind)
+                ray = dr.select(behind, past, ray)
+                si = dr.select(behind, si2, si)
+                on_exact = dr.select(behind, on_exact2, on_exact)
+                behind &= behind2
             active &= _not(behind)
 
             # Emission seen by this ray: the environment on escape, an area light on a hit
@@ -350,11 +378,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
             if dr.hint(has_exact, mode="scalar"):
                 # past the mesh along the ray itself (the line is kept), or from the exact point
-                scale = 1.0 + dr.max(dr.abs(from_mesh.p))
-                through = mi.Ray3f(from_mesh.p + ray.d * (scale * mi.math.RayEpsilon * 0.1),
-                                   ray.d, ray.time, ray.wavelengths)
                 leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
-                ray = dr.select(behind, through,
+                ray = dr.select(behind, self._past(ray, from_mesh),
                                 dr.select(on_exact, leave, si.spawn_ray(wo_world)))
             else:
                 ray = si.spawn_ray(wo_world)

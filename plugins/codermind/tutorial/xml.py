@@ -446,10 +446,12 @@ INTEGRATORS = ("tutorialpath", "path")
 QUIRKS = ("clean", "strict")
 
 
-def _integrator(w: _Writer, integrator: str, page: int) -> None:
+def _integrator(w: _Writer, integrator: str, page: int, blobs: bool = False) -> None:
     if integrator == "path":
         w.open("integrator", "Mitsuba's built-in path tracer (convert option integrator=path): "
-               "the expectation of the clean tutorialpath, one light sampled per hit", type="path")
+               "the expectation of the clean tutorialpath"
+               + (" with exact_hits false (blob hits on the mesh)" if blobs else "")
+               + ", one light sampled per hit", type="path")
         w.integer("max_depth", "$max_depth")
         w.integer("rr_depth", "$max_depth", "no Russian roulette (the tutorial has none)")
         w.close("integrator")
@@ -458,6 +460,10 @@ def _integrator(w: _Writer, integrator: str, page: int) -> None:
            "shadow ray at every hit (one render; path picks one light per hit), then the "
            "material's roulette; clean has path's expectation at less cost", type="tutorialpath")
     w.integer("max_depth", "$max_depth")
+    if blobs:
+        w.boolean("exact_hits", True, "blob hits moved onto the tutorial's exact surface, rays "
+                  "leaving them without Mitsuba's spawn offset, as the original's (false: the "
+                  "mesh's hits, as path sees them)")
     w.string("quirks", "$quirks", "clean: path's expectation; strict: the original's quirks"
              + (" (page 1 has none)" if page == 1 else ""))
     w.close("integrator")
@@ -517,7 +523,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
                value=f"{e:.6g}")
     w.blank()
 
-    _integrator(w, integrator, page)
+    _integrator(w, integrator, page, bool(model.blob_max_error))
     w.blank()
 
     size = settings.film_size
