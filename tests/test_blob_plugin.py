@@ -310,3 +310,22 @@ def test_exact_hit_agrees_with_the_zone_solver(llvm):
     assert same.mean() > 0.9
     assert np.median(err_exact[same]) < 1e-3 and err_exact[same].max() < 2e-2
     assert np.median(err_mesh[same]) > 20 * np.median(err_exact[same])
+
+
+def test_zone_field_is_the_spec_table(llvm):
+    """[fact] The one-source field that ``exact_hit`` solves, f(x) and f'(x), against spec
+    2.10's points (blob_reference.SPEC_X / SPEC_F, linear in between, 0 beyond x = 10)."""
+    mi = llvm
+    shape = mi.load_dict(blob_dict(mi, [[0, 0, 0]], field="tutorial"))
+    x = np.concatenate([np.random.default_rng(2).uniform(0.2, 12.0, 20000), ref.SPEC_X[1:]])
+    f, df = shape._zone(mi.Float(x.astype(np.float32)))
+    x32 = x.astype(np.float32).astype(np.float64)
+    assert np.abs(np.array(f) - np.interp(x32, ref.SPEC_X, ref.SPEC_F, right=0.0)).max() < 1e-6
+    inner = np.abs(x32[:, None] - ref.SPEC_X[None]).min(1) > 1e-4   # off the kinks
+    k = np.searchsorted(ref.SPEC_X, x32[inner], side="right")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.where(k >= len(ref.SPEC_X), 0.0,
+                         (ref.SPEC_F[np.minimum(k, 10)] - ref.SPEC_F[k - 1])
+                         / (ref.SPEC_X[np.minimum(k, 10)] - ref.SPEC_X[k - 1]))
+    slope = np.where(x32[inner] < 1.0, -0.9, slope)
+    assert np.abs(np.array(df)[inner] - slope).max() < 1e-5
