@@ -226,6 +226,7 @@ def trace_mitsuba(ms, env, ray, step, rays=11, exact_hits=False):
     hits)."""
     import drjit as dr
     import mitsuba as mi
+    from codermind.integrators.tutorialpath import TutorialIntegrator
     blob = [s for s in ms.shapes() if hasattr(s, "exact_hit")][0]
     N = arr(ray.o).shape[1]
     val = np.zeros((3, N)); coef = np.ones(N)
@@ -239,9 +240,7 @@ def trace_mitsuba(ms, env, ray, step, rays=11, exact_hits=False):
             behind = si.is_valid() & si.shape.is_mesh() & blob.left_surface(ray, si, hit)
             if not dr.any(behind):
                 break
-            scale = 1.0 + dr.max(dr.abs(si.p))
-            ray = dr.select(behind, mi.Ray3f(si.p + ray.d * (scale * mi.math.RayEpsilon * 0.1),
-                                             ray.d), ray)
+            ray = dr.select(behind, TutorialIntegrator._past(ray, si), ray)
             si = ms.ray_intersect(ray)
         valid = arr(si.is_valid()).astype(bool)
         mesh = arr(si.is_valid() & si.shape.is_mesh()).astype(bool)

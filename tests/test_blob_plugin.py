@@ -241,10 +241,11 @@ def test_renders_in_scalar_rgb(scalar):
     assert centre < corner  # the diffuse blob (albedo 0.5) is darker than the sky
 
 
-def _aimed_rays(mi, targets, rng, back):
+def _aimed_rays(mi, targets, rng, back, centre=np.zeros(3)):
     """Rays from ``back`` units before each target, towards it (steep: within 60 degrees
-    of the inward direction through the origin of ``targets``' sphere-like blob)."""
-    d = -targets / np.linalg.norm(targets, axis=1, keepdims=True) + rng.normal(size=targets.shape) * 0.4
+    of the inward direction through ``centre`` of the sphere-like blob)."""
+    inward = centre - targets
+    d = inward / np.linalg.norm(inward, axis=1, keepdims=True) + rng.normal(size=targets.shape) * 0.4
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = targets - back * d
     f32 = lambda a: [a[:, k].astype(np.float32) for k in range(3)]  # noqa: E731
@@ -291,9 +292,7 @@ def test_exact_hit_agrees_with_the_zone_solver(llvm):
     rng = np.random.default_rng(11)
     targets = ref.surface_samples(PAGE4, R, "tutorial", 400, rng)[:400]
     centre = PAGE4.mean(0)
-    o, d, rays = _aimed_rays(mi, targets - centre, rng, 3 * R)
-    o += centre
-    rays = mi.Ray3f(mi.Point3f(*[o[:, k].astype(np.float32) for k in range(3)]), rays.d)
+    o, d, rays = _aimed_rays(mi, targets, rng, 3 * R, centre)
     t_true = ref.first_hit(o, d, PAGE4, R, "tutorial")
     si = scene.ray_intersect(rays)
     hit = shape.exact_hit(rays, si, si.is_valid())

@@ -12,10 +12,11 @@ from ..exposed import exposed, scalar
 from ..blobmesh import BlobMeshError, build_blob_mesh
 from ..blobmesh.field import INTERCEPT, SLOPE
 
+from ..params import loose_number
+
 # Blob._zone's closed form of the zone tables beyond the outermost zone
 assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 * k + 1) / 10)
            < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
-from ..params import loose_number
 
 _CENTER = re.compile(r"center(\d+)$")
 
@@ -294,8 +295,6 @@ class Blob(mi.Mesh):
             return value, slope
 
         s = mi.Float(0.0)
-        step = mi.Float(0.0)
-        slope = mi.Float(0.0)
         for _ in range(self.REFINE_STEPS + 1):
             g, slope = residual(s)
             step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
