@@ -72,3 +72,23 @@ def test_shadow_rays_stop_at_the_light_in_clean_and_at_its_square_in_strict(tmp_
     o, d = np.zeros((3, 1)), np.array([[1.0], [0.0], [0.0]])
     assert world.occluded(o, d, np.array([100.0]))[0]        # strict: |L|^2 = 100
     assert not world.occluded(o, d, np.array([10.0]))[0]     # clean: |L| = 10
+
+
+def test_two_spheres_at_the_same_distance_go_to_the_first_unless_ties_last(tmp_path):
+    """Mirror-image spheres about x = 0: a ray in that plane meets both at exactly the same
+    t (the same float operations on +-3). The original keeps the sphere listed first (a later
+    one wins only if strictly closer); ``ties="last"`` takes the other; off the plane the
+    nearer sphere wins under both rules."""
+    scene = ref.parse_scene(write_scene(
+        tmp_path, "1.1", "NumberOfMaterials = 1;\nNumberOfSpheres = 2;\nNumberOfLights = 1;\n",
+        "Material0 { Diffuse = 1; }\nSphere0 { Center = -3, 0, 50; Size = 5; }\n"
+        "Sphere1 { Center = 3, 0, 50; Size = 5; }\nLight0 { Position = 0, 0, 0; Intensity = 1; }\n"))
+    o = np.array([[0.0, -0.5, 0.5], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]], dtype=np.float32)
+    d = np.array([[0.0] * 3, [0.0] * 3, [1.0] * 3], dtype=np.float32)
+    far = np.full(3, 1000.0, dtype=np.float32)
+    t_first, first = World(scene, np.float32).intersect(o, d, far)
+    t_last, last = World(scene, np.float32, ties="last").intersect(o, d, far)
+    assert t_first[0] == t_last[0] == np.float32(50 - 4)        # sqrt(5^2 - 3^2) = 4
+    assert first.tolist() == [0, 0, 1] and last.tolist() == [1, 0, 1]
+    with pytest.raises(ValueError, match="ties"):
+        World(scene, np.float32, ties="nearest")

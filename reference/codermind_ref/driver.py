@@ -75,7 +75,7 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
            rect: tuple[int, int, int, int] | None = None, stride: int = 1,
            workers: int | None = None,
            progress: Callable[[int, int], None] | None = None,
-           tile_map: Callable | None = None) -> RenderResult:
+           tile_map: Callable | None = None, ties: str = "first") -> RenderResult:
     """Render ``scene`` as its page's program does.
 
     mode: "strict" (every quirk), "clean" (the quirks of :mod:`codermind_ref.quirks` removed)
@@ -90,6 +90,8 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     also exposure. tile_map(job, tiles): runs ``job.trace(tile)`` for every tile elsewhere (the
     job pickles; e.g. on other machines) and yields the results in tile order; it replaces the
     worker processes (``workers`` is then ignored) and the image does not depend on it.
+    ties: "first" (the original) or "last", which sphere wins at exactly equal distances
+    (:class:`~codermind_ref.world.World`).
     """
     t0 = time.perf_counter()
     quirks = resolve(mode)
@@ -103,7 +105,7 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
         raise ValueError(f"rect {rect} / stride {stride} outside the {scene.width}x"
                          f"{scene.height} image")
     xs, ys = np.arange(x0, x1, stride), np.arange(y0, y1, stride)
-    world = World(scene, np.float32 if scene.page < 4 else np.float64)
+    world = World(scene, np.float32 if scene.page < 4 else np.float64, ties)
     warnings = list(scene.warnings)
     if scene.page == 4 and exposure is None:
         lum = probe_luminance(scene, world, quirks, seed)

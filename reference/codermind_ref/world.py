@@ -18,10 +18,19 @@ from .scene import Scene
 class World:
     """``dtype``: float32 reproduces the float arithmetic of the page 1 and 2 programs (their
     output is deterministic and byte-exact); page 4 runs in float64 (its Perlin noise is double
-    in the original, and its output is stochastic)."""
+    in the original, and its output is stochastic).
 
-    def __init__(self, scene: Scene, dtype=np.float64):
+    ``ties``: which of two spheres a ray hits at exactly the same distance. "first" (the
+    original): the one listed first, a later one wins only if strictly closer. "last": the
+    later one. A renderer without the file's order (Mitsuba's BVH) may take either; page 1's
+    spheres 0 and 1 meet on the plane x = 320, which the camera's column 320 sees at exactly
+    equal distances."""
+
+    def __init__(self, scene: Scene, dtype=np.float64, ties: str = "first"):
+        if ties not in ("first", "last"):
+            raise ValueError(f"ties must be 'first' or 'last', got {ties!r}")
         self.page = scene.page
+        self.ties_last = ties == "last"
         self.dtype = dtype
         self.spheres = [(np.array(s.center, dtype=dtype).reshape(3, 1), dtype(s.size))
                         for s in scene.spheres]
@@ -42,8 +51,14 @@ class World:
         # is the original's order (blobs, then strictly closer spheres), with a shorter
         # segment to cull the blob test against
         for i, (center, radius) in enumerate(self.spheres):
-            t_new = sphere.hit(o, d, t, center, radius)
-            obj = np.where(t_new < t, i, obj)
+            if self.ties_last:   # roots up to the next float above t: a root equal to t too
+                t_new = sphere.hit(o, d, np.nextafter(t, np.inf), center, radius)
+                hit = t_new <= t
+                t_new = np.where(hit, t_new, t)
+            else:
+                t_new = sphere.hit(o, d, t, center, radius)
+                hit = t_new < t
+            obj = np.where(hit, i, obj)
             t = t_new
         first = len(self.spheres)
         for i, (centers, radius) in enumerate(self.blobs):
