@@ -68,10 +68,14 @@ def test_deterministic_scene_is_exact_with_summed_lights(tmp_path):
                       "--exposure", "3")
     assert sampled.returncode == 2 and "needs 4 samples" in sampled.stderr
     # N^2 = 4 stratified samples pick each light equally often at every hit: exact again
+    # (against tutorialpath with path's spawn offsets: min_distance 0)
     sampled = run_cli("render", path_xml, "-o", tmp_path / "c", "--lights", "sample",
                       "--exposure", "3", "-D", "spp=4")
     assert sampled.returncode == 0, sampled.stderr
-    assert np.abs(read(tmp_path / "c.exr") - read(tmp_path / "b.exr")).max() < 1e-4
+    offsets = run_cli("render", SCENES / "page3.xml", "-o", tmp_path / "e", "--exposure", "3",
+                      "-D", "min_distance=0")
+    assert offsets.returncode == 0, offsets.stderr
+    assert np.abs(read(tmp_path / "c.exr") - read(tmp_path / "e.exr")).max() < 1e-4
 
 
 def test_probe_exposure_is_printed_and_render_option_works(tmp_path):

@@ -88,6 +88,7 @@ def test_clean_has_the_expectation_of_path(llvm, tmp_path, source):
     random = "lens and roulette draws" in text             # the camera's sampler is random
     defines = {k: v for k, v in re.findall(r'<default name="(\w+)" value="([^"]+)"', text)}
     defines.pop("quirks", None)
+    defines.pop("min_distance", None)      # the swapped integrators use Mitsuba's offsets
     defines = {k: v for k, v in defines.items() if f"${k}" in text}
     if not random:
         # nothing random: one sample is the value; path summed over one-light scenes
@@ -187,8 +188,37 @@ def test_strict_refuses_an_area_light(llvm):
     assert "tutorialpath: quirks=strict" in message and "area or environment light" in message
 
 
+def test_min_distance_decides_where_two_spheres_meet(llvm):
+    """Page 1's spheres 0 and 1 cross on the plane x = 320, which the camera's column 320
+    hits at exactly equal distances. With the converter's ``min_distance`` (the tutorial's
+    0.1 along the ray, spec 2.3) every sub-sample of that column equals the port's value
+    with one of the two tie rules (the port is byte-exact with the original's
+    expected.png); with Mitsuba's spawn offsets (``min_distance`` 0) the reflections and
+    shadows that leave the crease differ (the offset moves the origin across the other
+    sphere)."""
+    mi = llvm
+    import codermind_ref as ref
+    from codermind.tutorial import render as tr
+    scene = ref.parse_scene(SCENES / "page1.txt")
+    column = (320, 0, 321, 480)
+    first = ref.render(scene, "clean", rect=column).linear[:, 0]
+    last = ref.render(scene, "clean", rect=column, ties="last").linear[:, 0]
+    crease = np.any(first != last, axis=-1)
+    assert crease.sum() > 90                     # the two spheres overlap over ~98 rows
+
+    def agrees(**defines) -> np.ndarray:
+        ours = tr.render(*tr.load(SCENES / "page1.xml", **defines), seed=0).linear[:, 320]
+        close = [np.all(np.abs(ours - p) <= 1e-4 + 1e-3 * np.abs(p), axis=-1)
+                 for p in (first, last)]
+        return (close[0] | close[1])[crease]
+
+    assert agrees().all()
+    assert (~agrees(min_distance=0)).sum() > 20
+
+
 @pytest.mark.parametrize("props,needle", [({"quirks": "exact"}, "'quirks'"),
                                           ({"max_depth": -2}, "'max_depth'"),
+                                          ({"min_distance": -0.1}, "'min_distance'"),
                                           ({"exact_hits": 1}, "'exact_hits'")])
 def test_bad_parameters_give_one_line(llvm, props, needle):
     mi = llvm
@@ -240,7 +270,7 @@ def _glass_only(text: str) -> str:
     i = text.index('id="material1"')
     j = text.index('name="reflection"', i)
     text = text[:j] + text[j:].replace('value="1"', 'value="0"', 1)
-    # the mesh's own hits (the probe below traces scene.ray_intersect with spawn_ray)
+    # the mesh's own hits (the probe below traces scene.ray_intersect from min_distance)
     tag = '<integrator type="tutorialpath">'
     text = re.sub(r'<boolean name="exact_hits" value="\w+"/>', "", text)
     return text.replace(tag, tag + '<boolean name="exact_hits" value="false"/>', 1)
@@ -250,7 +280,8 @@ def _glass_only(text: str) -> str:
 def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
     """[fact] spec 2.7 in float64 (tests/closed_form.py's Fresnel, written from the spec),
     evaluated on the integrator's own float32 hits (scene.ray_intersect, the unbumped shading
-    normal's side, spawn_ray) with the sampler's own roulette draws (a second sampler of the
+    normal's side, rays leaving from 0.1 along their direction: the converter's
+    min_distance) with the sampler's own roulette draws (a second sampler of the
     same seed, drawn in the integrator's order: next_1d, next_2d per hit), against
     ``tutorialpath``'s value of the same camera rays, ray by ray: page 4's glass blob with
     lights off, whose paths stay inside by total internal reflection up to the limit
@@ -314,7 +345,8 @@ def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
         t = (n1 / n2) * (v + cos_i * nf) - cos_t * nf
         wo = np.where(reflect, v - 2 * np.sum(v * nf, axis=0) * nf,
                       t / np.linalg.norm(np.where(alive, t, 1.0), axis=0))
-        ray = si.spawn_ray(mi.Vector3f(*map(f32, np.where(alive, wo, v))))
+        wo = mi.Vector3f(*map(f32, np.where(alive, wo, v)))
+        ray = mi.Ray3f(dr.fma(wo, 0.1, si.p), wo)       # min_distance 0.1 (spec 2.3)
 
     assert (inside_count >= min(5, max_depth - 2)).mean() > 0.3    # long paths inside the glass
     assert real.mean() > 0.01

@@ -65,6 +65,18 @@ class TutorialIntegrator(mi.SamplingIntegrator):
          or a segment. ``false``: the mesh's hits, as :monosp:`path` sees them
          (Default: ``true``)
 
+     * - min_distance
+       - |float|
+       - The tutorial's self-intersection rule instead of Mitsuba's: where > 0, rays
+         (continuations and shadow rays) leave a hit point p from p + min_distance * d along
+         their own direction d, with no offset along the normal, so a surface counts only
+         beyond that distance along the ray, as the tutorial's roots count only beyond its
+         epsilon (spec 2.3: 0.1 for spheres). It decides where two surfaces meet (page 1's
+         spheres 0 and 1 cross on the plane x = 320, which the camera's column 320 sees):
+         Mitsuba's normal offset can carry the origin across the other surface. Rays that
+         leave an exact hit (``exact_hits``) keep their own rule. 0: Mitsuba's spawn offsets,
+         as :monosp:`path` (Default: 0)
+
      * - quirks
        - |string|
        - ``clean``: the expectation of the built-in :monosp:`path` with the same
@@ -144,6 +156,12 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         if not isinstance(self.exact_hits, bool):
             raise ValueError(f"tutorialpath: 'exact_hits' must be a boolean, got "
                              f"{self.exact_hits!r}")
+        self.min_distance = props.get("min_distance", 0.0)
+        if isinstance(self.min_distance, bool) or not isinstance(self.min_distance, (int, float)) \
+                or not self.min_distance >= 0:
+            raise ValueError(f"tutorialpath: 'min_distance' must be a number >= 0, got "
+                             f"{self.min_distance!r}")
+        self.min_distance = float(self.min_distance)
         self.quirks = str(props.get("quirks", "clean"))
         if self.quirks not in QUIRKS:
             raise ValueError(f"tutorialpath: 'quirks' must be 'clean' or 'strict', got "
@@ -200,6 +218,25 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         scale = 1.0 + dr.max(dr.abs(hit.p))
         return mi.Ray3f(hit.p + ray.d * (scale * mi.math.RayEpsilon * 0.1), ray.d, ray.time,
                         ray.wavelengths)
+
+    def _leave(self, si: mi.SurfaceInteraction3f, d: mi.Vector3f) -> mi.Ray3f:
+        """The ray leaving ``si`` along ``d``: Mitsuba's spawn offset, or with
+        ``min_distance`` from that distance along ``d`` itself."""
+        if self.min_distance == 0:
+            return si.spawn_ray(d)
+        return mi.Ray3f(dr.fma(d, self.min_distance, si.p), d, si.time, si.wavelengths)
+
+    def _shadow(self, si: mi.SurfaceInteraction3f, ds: mi.DirectionSample3f,
+                reach: mi.Float) -> mi.Ray3f:
+        """The shadow ray from ``si`` towards ``ds``, testing occluders up to ``reach`` from
+        ``si.p`` (the light's distance, or strict's squared distance)."""
+        if self.min_distance == 0:
+            ray = si.spawn_ray(ds.d)
+            ray.maxt = reach * (1.0 - SHADOW_EPSILON)
+            return ray
+        eps = self.min_distance
+        return mi.Ray3f(dr.fma(ds.d, eps, si.p), ds.d, dr.maximum(reach - eps, 0.0), si.time,
+                        si.wavelengths)
 
     @staticmethod
     def _environment(scene: mi.Scene, d: mi.Vector3f, active: mi.Bool) -> mi.Spectrum:
@@ -336,10 +373,19 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
                         * lit_scale
                 lit = active_next & (dr.max(dr.abs(value * em_weight)) > 0)
-                shadow = si.spawn_ray_to(ds.p)
+                if self.min_distance == 0:
+                    shadow = si.spawn_ray_to(ds.p)
+                else:
+                    shadow = self._shadow(si, ds, ds.dist)
+                if dr.hint(has_exact and self.min_distance != 0, mode="scalar"):
+                    # an exact point may lie up to the mesh's error inside it: the normal offset
+                    shadow = dr.select(on_exact, si.spawn_ray_to(ds.p), shadow)
                 if dr.hint(strict, mode="scalar"):
-                    far = si.spawn_ray(ds.d)
-                    far.maxt = dr.square(ds.dist) * (1.0 - SHADOW_EPSILON)
+                    far = self._shadow(si, ds, dr.square(ds.dist))
+                    if dr.hint(has_exact and self.min_distance != 0, mode="scalar"):
+                        far_mesh = si.spawn_ray(ds.d)
+                        far_mesh.maxt = dr.square(ds.dist) * (1.0 - SHADOW_EPSILON)
+                        far = dr.select(on_exact, far_mesh, far)
                     shadow = dr.select(squared, far, shadow)
                 blocked = scene.ray_test(shadow, lit)
                 L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
@@ -380,9 +426,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 # past the mesh along the ray itself (the line is kept), or from the exact point
                 leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
                 ray = dr.select(behind, self._past(ray, from_mesh),
-                                dr.select(on_exact, leave, si.spawn_ray(wo_world)))
+                                dr.select(on_exact, leave, self._leave(si, wo_world)))
             else:
-                ray = si.spawn_ray(wo_world)
+                ray = self._leave(si, wo_world)
 
             if dr.hint(strict, mode="scalar"):
                 # the segment limit: the cube map along the next direction, not traced
@@ -404,10 +450,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
     def traverse(self, callback: mi.TraversalCallback) -> None:
         callback.put("max_depth", self.max_depth, mi.ParamFlags.NonDifferentiable)
         callback.put("exact_hits", self.exact_hits, mi.ParamFlags.NonDifferentiable)
+        callback.put("min_distance", self.min_distance, mi.ParamFlags.NonDifferentiable)
 
     def to_string(self) -> str:
         return (f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  exact_hits = "
-                f"{self.exact_hits},\n  quirks = {self.quirks}\n]")
+                f"{self.exact_hits},\n  min_distance = {self.min_distance},\n  quirks = {self.quirks}\n]")
 
 
 mi.register_integrator("tutorialpath", lambda props, cls=TutorialIntegrator: cls(props))

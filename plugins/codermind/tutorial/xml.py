@@ -279,8 +279,18 @@ def _notes(scene, model: Model, integrator: str = "tutorialpath",
     if continues and _extent(scene) > T_MAX:
         notes.append(f"The scene is larger than {T_MAX:g}: the original cuts every segment at "
                      f"t = {T_MAX:g}; here only camera rays are cut.")
-    notes.append("Self-intersections are avoided by Mitsuba's ray offsets, not the tutorial's "
-                 "0.1 (spheres) / 0.01 (blobs) minimum distance; arithmetic is float32.")
+    if integrator == "path":
+        notes.append("Self-intersections are avoided by Mitsuba's ray offsets, not the "
+                     "tutorial's 0.1 (spheres) / 0.01 (blobs) minimum distance; arithmetic is "
+                     "float32.")
+    else:
+        notes.append(f"Rays leave hit points from {MIN_DISTANCE:g} along their own direction "
+                     "(tutorialpath's min_distance: the tutorial's sphere epsilon"
+                     + (", which also stands in for its 0.01 blob epsilon where a ray leaves "
+                        "the blob's mesh; rays leaving exact blob points keep the 0.01"
+                        if scene.blobs else "")
+                     + "); two spheres at exactly the same distance are hit in Mitsuba's BVH "
+                     "order, not the file's; arithmetic is float32.")
     if scene.warnings:
         notes.append(f"The parser reported {len(scene.warnings)} warning(s) (values kept as the "
                      "original reads them): " + "; ".join(scene.warnings))
@@ -443,6 +453,8 @@ def _cubemap(w: _Writer, src: _Source, scene, folder: Path | None) -> None:
 
 
 INTEGRATORS = ("tutorialpath", "path")
+#: tutorialpath's min_distance: the tutorial's sphere epsilon (spec 2.3)
+MIN_DISTANCE = 0.1
 QUIRKS = ("clean", "strict")
 
 
@@ -464,6 +476,9 @@ def _integrator(w: _Writer, integrator: str, page: int, blobs: bool = False) -> 
         w.boolean("exact_hits", True, "blob hits moved onto the tutorial's exact surface, rays "
                   "leaving them without Mitsuba's spawn offset, as the original's (false: the "
                   "mesh's hits, as path sees them)")
+    w.leaf("float", "rays leave hits from the tutorial's sphere "
+            "epsilon along their direction (spec 2.3), not by Mitsuba's normal offset: where "
+            "two spheres meet, as page 1's at x = 320", name="min_distance", value="$min_distance")
     w.string("quirks", "$quirks", "clean: path's expectation; strict: the original's quirks"
              + (" (page 1 has none)" if page == 1 else ""))
     w.close("integrator")
@@ -515,6 +530,8 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
     if integrator == "tutorialpath":
         w.leaf("default", "clean (path's expectation) or strict (the original's quirks)",
                name="quirks", value=quirks)
+        w.leaf("default", "the tutorial's sphere epsilon; 0: Mitsuba's ray offsets",
+               name="min_distance", value=f"{MIN_DISTANCE:g}")
     w.leaf("default", "samples per sub-sample" + (" (the scene's Complexity)"
                                                   if page == 4 else ""),
            name="spp", value=str(model.spp))
