@@ -93,6 +93,38 @@ def test_an_exposure_error_fails_the_verdict_by_itself(tmp_path, light1, verdict
     assert "exposure test: each side's auto exposure over 8 seeds" in r.stdout
 
 
+def test_page1_crop_on_the_crossing_spheres_passes(tmp_path):
+    """The 64 x 48 crop over column x = 320 (false-alarm run 2, which failed: pass rate 0.977,
+    FLIP 0.021): the port's two tie rules differ on the column's 48 pixels, Mitsuba takes the
+    later sphere there, and with the tutorial's min_distance the rest agrees."""
+    r = run_cli("compare", SCENES / "page1.txt", "--rect", "310,249,374,297", "-o", tmp_path,
+                "-q")
+    assert r.returncode == 0, r.stdout + r.stderr
+    rec = record(tmp_path)
+    assert rec["ties"] == {"pixels": 48, "mitsuba_took_last": 48}
+    assert rec["z_test"]["pass_rate"] >= 0.999 and rec["flip_mean"] < 0.001
+
+
+def test_either_tie_keeps_the_first_rule_off_the_ties():
+    """At a tie pixel the port takes the rule Mitsuba matches; elsewhere the original's, so an
+    error off the ties stays visible."""
+    from codermind_harness.sides import SideImage, either_tie
+
+    def side(linear):
+        linear = np.asarray(linear, dtype=np.float64).reshape(2, 4, 3)
+        return SideImage("x", linear, np.zeros_like(linear), linear[::2, ::2].copy(), 1, 0.0)
+
+    first = side([[0.1] * 12, [0.2] * 12])
+    last = side([[0.1] * 12, [0.2] * 6 + [0.9] * 6])        # pixel (0, 1) is a tie
+    mits = side([[0.5] * 12, [0.2] * 6 + [0.9] * 6])        # wrong at (0, 0), last at (0, 1)
+    merged, ties, took = either_tie(mits, first, last, 2)
+    assert (ties, took) == (1, 1)
+    assert np.array_equal(merged.linear[:, 2:], last.linear[:, 2:])
+    assert np.array_equal(merged.linear[:, :2], first.linear[:, :2])
+    merged, ties, took = either_tie(first, first, last, 2)  # Mitsuba took the first
+    assert (ties, took) == (1, 0) and np.array_equal(merged.linear, first.linear)
+
+
 def test_a_mismatched_model_fails(tmp_path):
     """The Mitsuba side with one path segment (no mirror reflections) must fail."""
     r = run_cli("compare", SCENES / "page1.txt", "--stride", "8", "-D", "max_depth=2",

@@ -325,7 +325,7 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
 
 def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                 mode: str = "clean", random: bool | None = None, workers: int | None = None,
-                progress: bool = True) -> SideImage:
+                progress: bool = True, ties: str = "first") -> SideImage:
     import codermind_ref as ref
     t0 = time.perf_counter()
     from .progress import PortProgress
@@ -334,7 +334,7 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
     callback = PortProgress(f"port {Path(scene.path).name}") if progress and not cluster else None
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
                         stride=grid.stride, workers=workers, progress=callback,
-                        tile_map=cluster.tile_map if cluster else None)
+                        tile_map=cluster.tile_map if cluster else None, ties=ties)
     seconds = time.perf_counter() - t0
     var = result.variance.astype(np.float64)
     if np.isnan(var).any():
@@ -347,6 +347,29 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
     return SideImage(f"port ({result.mode})", result.linear.astype(np.float64), var,
                      np.clip(result.encoded.astype(np.float64), 0.0, 1.0), result.complexity,
                      seconds)
+
+
+def either_tie(mits: SideImage, first: SideImage, last: SideImage, sub: int
+               ) -> tuple[SideImage, int, int]:
+    """The port's image with, at each pixel where its two tie rules differ (a ray meets two
+    spheres at exactly the same distance, :class:`codermind_ref.world.World`), the rule whose
+    sub-samples lie closer to Mitsuba's; the number of such pixels and of those that took
+    "last". The original keeps the sphere listed first; Mitsuba's BVH has no such order."""
+    k = sub
+
+    def per_pixel(x: np.ndarray) -> np.ndarray:        # (k h, k w, 3) -> (h, w)
+        h, w = x.shape[0] // k, x.shape[1] // k
+        return x.reshape(h, k, w, k, 3).max(axis=(1, 3, 4))
+
+    tie = per_pixel(np.abs(first.linear - last.linear)) > 0
+    take = tie & (per_pixel(np.abs(mits.linear - last.linear))
+                  < per_pixel(np.abs(mits.linear - first.linear)))
+    sub_take = np.repeat(np.repeat(take, k, axis=0), k, axis=1)[:, :, None]
+    linear = np.where(sub_take, last.linear, first.linear)
+    encoded = np.where(take[:, :, None], last.encoded, first.encoded)
+    merged = SideImage(first.label, linear, first.variance, encoded, first.spp,
+                       first.seconds + last.seconds)
+    return merged, int(tie.sum()), int(take.sum())
 
 
 def object_labels(xml: Path, grid: Grid, defines: dict | None = None

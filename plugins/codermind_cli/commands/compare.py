@@ -1,7 +1,8 @@
-"""Render tutorial scenes with the Mitsuba plugins (the converted XML through the built-in
-`path` integrator) and with the standalone port in clean mode, at the same sub-sample
-positions and sample counts (a random scene's Mitsuba side with the `independent` sampler,
-as the port's rays are independent), and compare them: a two-sample z-test per sub-sample and channel
+"""Render tutorial scenes with the Mitsuba plugins (the converted XML through its
+integrator, the converter's `tutorialpath`) and with the standalone port in clean mode, at the
+same sub-sample positions and sample counts (a random scene's Mitsuba side with the
+`independent` sampler, as the port's rays are independent; a scene without randomness's port
+side with either sphere where a ray meets two at exactly the same distance), and compare them: a two-sample z-test per sub-sample and channel
 of the linear radiance (Sidak-corrected alpha 0.01; pixels without noise on either side must
 agree within rtol 1e-3 + atol 1e-4), mean FLIP on the displayed images at the same exposure,
 relative MSE. On page 4 the two sides' own auto exposures (each side's probe grid, over 8
