@@ -22,7 +22,7 @@ Clopper-Pearson 95 % interval.
   pages 1-3 on one 32 x 24 crop.
 
     python benchmarks/false_alarm.py --out docs/results/false-alarm.md [--runs N] [--cluster ADDRESS]
-    python benchmarks/false_alarm.py --spp-sweep --out sweep.md
+    python benchmarks/false_alarm.py --spp-sweep --out sweep.md [--sweep-seeds N]
 
 Writes a Markdown table (``--out``) and every run's record as JSON beside it (``.json``),
 rewritten after each run, so that an interrupted benchmark keeps what it measured.
@@ -100,17 +100,20 @@ SWEEP_RANDOM = ((300, 250, 332, 274), (400, 140, 432, 164))
 SWEEP_DET = (200, 200, 232, 224)
 
 
-def sweep_runs(spps=(16, 64, 256, 1024)) -> list[dict]:
-    """Every distinct scene at every spp (the cheap spp first), seed 0. The twins are left
-    out: ``scenes/pageN.xml`` is what ``scenes/pageN.txt`` converts to, and the tutorial's
-    page-1 and page-2 files are the bundled ones (their runs give the same numbers)."""
+def sweep_runs(spps=(16, 64, 256, 1024), seeds: int = 1) -> list[dict]:
+    """Every distinct scene at every spp (the cheap spp first), seed 0 (with ``seeds`` > 1 the
+    random scenes also with seeds 10, 20, ...: one seed is one draw of the verdict). The twins
+    are left out: ``scenes/pageN.xml`` is what ``scenes/pageN.txt`` converts to, and the
+    tutorial's page-1 and page-2 files are the bundled ones (their runs give the same
+    numbers)."""
     rnd, det = scenes()
     rnd = [s for s in rnd if s.suffix == ".txt"]
     det = [s for s in det if s.suffix == ".txt" and s.parent == ROOT / "scenes"]
-    return [dict(scene=s, seed=0, rect=rect, stride=1, spp=spp)
+    return [dict(scene=s, seed=seed, rect=rect, stride=1, spp=spp)
             for spp in spps
-            for s, rect in [(s, r) for s in rnd for r in SWEEP_RANDOM]
-            + [(s, SWEEP_DET) for s in det]]
+            for s, rect, n in [(s, r, seeds) for s in rnd for r in SWEEP_RANDOM]
+            + [(s, SWEEP_DET, 1) for s in det]
+            for seed in range(0, 10 * n, 10)]
 
 
 def which(failures: list[str]) -> str:
@@ -240,7 +243,8 @@ def pivot(rows: list[dict]) -> list[str]:
     more than one spp."""
     grids: dict = {}
     for r in rows:
-        grids.setdefault((r["scene"], tuple(r["rect"]), r["stride"]), {})[r["spp"]] = r
+        grids.setdefault((r["scene"], tuple(r["rect"]), r["stride"]), {}).setdefault(
+            r["spp"], []).append(r)
     if all(len(v) < 2 for v in grids.values()):
         return []
     spps = sorted({r["spp"] for r in rows})
@@ -249,15 +253,22 @@ def pivot(rows: list[dict]) -> list[str]:
     for (scene, rect, stride), by in grids.items():
         cells = []
         for s in spps:
-            r = by.get(s)
-            if r is None:
+            runs = by.get(s)
+            if runs is None:
                 cells.append("not run")
                 continue
+            if len(runs) > 1:       # several seeds: how many fail, and which
+                bad = [r for r in runs if not r["passed"]]
+                cells.append(f"{len(bad)} / {len(runs)} seeds fail" + (
+                    " (" + ", ".join(f"{r['seed']}: {r['failed']}" for r in bad) + ")"
+                    if bad else ""))
+                continue
+            r = runs[0]
             pooled = "/".join(_g(v, ".2g") for v in r["pooled_max"].values())
             cells.append(("pass" if r["passed"] else f"**FAIL** ({r['failed']})")
                          + f", z {r['pass_rate']:.4f}" + (f", Z {pooled}" if pooled else "")
                          + f", FLIP {r['flip']:.4f}/{r['flip_limit']:.4f}")
-        blob = max(r["blob_sub_samples"] for r in by.values())
+        blob = max(r["blob_sub_samples"] for runs in by.values() for r in runs)
         out.append(f"| `{scene}` | {','.join(map(str, rect))}"
                    + ("" if stride == 1 else f" /{stride}") + f" | {blob} | " + " | ".join(cells)
                    + " |")
@@ -273,6 +284,8 @@ def main() -> int:
     ap.add_argument("--spp-sweep", action="store_true",
                     help="every scene at spp 16, 64, 256, 1024 on one strided full frame")
     ap.add_argument("--sweep-spp", type=int, nargs="*", default=[16, 64, 256, 1024])
+    ap.add_argument("--sweep-seeds", type=int, default=1, metavar="N",
+                    help="--spp-sweep: the random scenes with seeds 0, 10, ..., 10 (N - 1)")
     ap.add_argument("--first", type=int, default=0, metavar="K", help="skip the first K runs")
     ap.add_argument("--limit", type=int, metavar="N", help="only the first N runs (after --first)")
     ap.add_argument("--only", nargs="*", help="scene path substrings to run")
@@ -301,7 +314,7 @@ def run(args: argparse.Namespace, cluster) -> int:
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
-    todo = (sweep_runs(tuple(args.sweep_spp)) if args.spp_sweep
+    todo = (sweep_runs(tuple(args.sweep_spp), args.sweep_seeds) if args.spp_sweep
             else false_alarm_runs(args.runs))
     todo = list(enumerate(todo))[args.first:]
     if args.only:

@@ -38,6 +38,22 @@ def test_run_list(tutorial_dir, monkeypatch):
     sweep = fa.sweep_runs()
     assert {r["spp"] for r in sweep} == {16, 64, 256, 1024}
     assert len({(str(r["scene"]), r["rect"]) for r in sweep}) == len(sweep) // 4
+    # several seeds: the random grids again with seeds 10 apart, the deterministic ones once
+    seeded = fa.sweep_runs((16,), seeds=3)
+    random = [r for r in seeded if "page4" in str(r["scene"])]
+    assert sorted({r["seed"] for r in random}) == [0, 10, 20]
+    assert len(random) == 3 * len([r for r in sweep if r["spp"] == 16 and "page4" in str(r["scene"])])
+    assert {r["seed"] for r in seeded if "page4" not in str(r["scene"])} == {0}
+
+
+def test_sweep_cells_count_failing_seeds():
+    fa = _module()
+    row = dict(scene="s", rect=[0, 0, 8, 8], stride=1, spp=16, passed=True, failed="",
+               blob_sub_samples=0, pass_rate=1.0, pooled_max={}, flip=0.0, flip_limit=0.01)
+    rows = [dict(row, seed=0, passed=False, failed="objects"), dict(row, seed=10),
+            dict(row, seed=0, spp=64)]
+    table = "\n".join(fa.pivot(rows))
+    assert "1 / 2 seeds fail (0: objects)" in table and "| pass, z 1.0000" in table
 
 
 def test_clopper_pearson():
