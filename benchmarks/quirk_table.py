@@ -3,7 +3,7 @@
     python benchmarks/quirk_table.py [--seed S] [--complexity N] [--stride K] [--pages 1 2 4]
 
 For each scene, renders strict, strict with one quirk removed (each quirk the page's program
-has: page 1 none, page 2 the shadow distance, page 4 all six), and clean,
+has: page 1 none, page 2 the shadow distance, page 4 all seven), and clean,
 all with the same seed (the same random numbers; page 4 auto-exposes per render, as a user
 would see it), and prints the mean and max absolute difference of the 8-bit output (all
 channels, calibration strip included) from strict, plus the auto exposure. Prints a Markdown
@@ -27,6 +27,7 @@ QUIRKS = {
     "cubemap_at_limit": "cube map at the segment limit",
     "inside_retrace": "inside re-trace consumes segments",
     "path_index": "Fresnel index carried along the path",
+    "refraction_length": "refracted direction not unit at cosI >= 0.999",
     "blob_float32": "blob bound in float32 (holes)",
 }
 APPLIES = {1: (), 2: ("shadow_squared",), 4: tuple(QUIRKS)}   # quirks each program has

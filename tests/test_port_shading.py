@@ -92,3 +92,23 @@ def test_two_spheres_at_the_same_distance_go_to_the_first_unless_ties_last(tmp_p
     assert first.tolist() == [0, 0, 1] and last.tolist() == [1, 0, 1]
     with pytest.raises(ValueError, match="ties"):
         World(scene, np.float32, ties="nearest")
+
+
+def test_refraction_at_near_normal_incidence_keeps_its_length_only_in_strict():
+    """Spec 2.7: cosI >= 0.999 forces cosT = 1, so (n1/n2)(d + cosI n) - n has length
+    sqrt(1 + (n1/n2)^2 sin^2 I), not 1, and the original's next intersection takes it as unit
+    (the tutorial's blob code: A = 1.0f). Strict keeps that length; clean normalizes. Elsewhere
+    Snell's law makes it unit in both."""
+    n = np.array([[0.0], [0.0], [-1.0]])
+    for cos_i, ratio in ((0.9995, 2.0), (0.9995, 0.5), (0.8, 0.5)):
+        sin_i = math.sqrt(1 - cos_i ** 2)
+        d = np.array([[sin_i], [0.0], [cos_i]])
+        forced = cos_i >= 0.999
+        cos_t = 1.0 if forced else math.sqrt(1 - (ratio * sin_i) ** 2)
+        args = (d, n, np.array([cos_i]), np.array([cos_t]), np.array([ratio]))
+        strict = transport.refracted(*args, ref.STRICT)[:, 0]
+        clean = transport.refracted(*args, ref.CLEAN)[:, 0]
+        expected = math.sqrt(1 + (ratio * sin_i) ** 2) if forced else 1.0
+        assert np.linalg.norm(strict) == pytest.approx(expected, rel=1e-12)
+        assert np.linalg.norm(clean) == pytest.approx(1.0, rel=1e-12)
+        assert np.allclose(clean, strict / np.linalg.norm(strict), rtol=1e-12)

@@ -95,6 +95,17 @@ def _decide(u: np.ndarray, rf: np.ndarray, tr: np.ndarray) -> np.ndarray:
                     np.where(some & (u <= rf + tr), REFRACT, DIFFUSE)).astype(np.int8)
 
 
+def refracted(d: np.ndarray, n: np.ndarray, cos_i: np.ndarray, cos_t: np.ndarray,
+              ratio: np.ndarray, quirks: Quirks) -> np.ndarray:
+    """(n1/n2)(d + cosI n) - cosT n (spec 2.7; n faces the ray): unit by Snell's law, except
+    where cosI >= 0.999 forced cosT = 1; ``refraction_length`` keeps that length (the original),
+    clean normalizes."""
+    out = ratio * (d + cos_i * n) - cos_t * n
+    if quirks.refraction_length:
+        return out
+    return out / np.sqrt(np.maximum(dot(out, out), 1e-300))
+
+
 def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
              quirks: Quirks) -> np.ndarray:
     """Page 4: colour (3, N) of rays o, d; draws (N, 2 + MAX_SEGMENTS) uniforms in [0, 1)."""
@@ -174,8 +185,7 @@ def roulette(world: World, o: np.ndarray, d: np.ndarray, draws: np.ndarray,
         reflect, refract = event == REFLECT, event == REFRACT
         d_reflect = d - (2.0 * dot(d, n)) * n
         ratio = n1 / np.where(refract, n2, 1.0)
-        d_refract = ratio * (d + cos_i * n) - cos_t * n
-        d = np.where(reflect, d_reflect, d_refract)
+        d = np.where(reflect, d_reflect, refracted(d, n, cos_i, cos_t, ratio, quirks))
         coef = coef * np.where(reflect, refl, np.where(refract, refr, 0.0))
         n1 = np.where(refract, n2, n1)
         level = level + 1

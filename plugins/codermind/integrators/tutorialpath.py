@@ -130,7 +130,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
     Not reproduced: the tutorial's zero-normal stop (Mitsuba's shapes have no zero
     normal), a carried index that differs from both sides' indices (two different
-    glasses along one path; no tutorial scene has that).
+    glasses along one path; no tutorial scene has that), the refracted direction's length
+    at near-normal incidence (the tutorial's next intersection takes a direction up to
+    1 + 2e-3 long as unit and hits off the surface; Mitsuba's rays are unit).
 
     .. tabs::
 

@@ -261,8 +261,10 @@ def _notes(scene, model: Model, integrator: str = "tutorialpath",
                      "noise is double precision).")
         if strict:
             notes.append("Strict quirks not reproduced: the original's stop at a zero normal "
-                         "(Mitsuba's shapes have none) and its float32 blob bound (the blob is "
-                         "a mesh).")
+                         "(Mitsuba's shapes have none), its float32 blob bound (the blob is "
+                         "a mesh) and its refracted directions' length at near-normal "
+                         "incidence (taken as unit by its next intersection; Mitsuba's rays "
+                         "are unit).")
     if len(scene.lights) > 1 and integrator == "path":
         notes.append("The tutorial shades every hit with all its lights; Mitsuba's path "
                      "integrator samples one light per hit. " + (
