@@ -196,12 +196,11 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
     mits = sides.render_mitsuba(xml, grid, spp, opt.seed, exposure, defines,
                                 progress=opt.progress, exposure_seeds=seeds, iid=random)
     ties = None
-    own = port
+    own = port                      # the noise floor is the port against itself, unmerged
     if not random:
         # exact ties between two spheres: either sphere is a faithful float renderer's answer
         last = sides.render_port(scene, grid, spp, opt.seed, exposure, opt.port_mode, random,
                                  opt.workers, False, ties="last")
-        own = port                  # the noise floor is the port against itself
         port, tie_pixels, tie_last = sides.either_tie(mits, port, last, grid.sub)
         ties = {"pixels": tie_pixels, "mitsuba_took_last": tie_last}
         if tie_pixels:

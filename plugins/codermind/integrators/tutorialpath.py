@@ -228,17 +228,26 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             return si.spawn_ray(d)
         return mi.Ray3f(dr.fma(d, self.min_distance, si.p), d, si.time, si.wavelengths)
 
-    def _shadow(self, si: mi.SurfaceInteraction3f, ds: mi.DirectionSample3f,
-                reach: mi.Float) -> mi.Ray3f:
-        """The shadow ray from ``si`` towards ``ds``, testing occluders up to ``reach`` from
-        ``si.p`` (the light's distance, or strict's squared distance)."""
-        if self.min_distance == 0:
-            ray = si.spawn_ray(ds.d)
-            ray.maxt = reach * (1.0 - SHADOW_EPSILON)
-            return ray
+    def _shadow(self, si: mi.SurfaceInteraction3f, ds: mi.DirectionSample3f, squared: bool,
+                on_exact: mi.Bool | None) -> mi.Ray3f:
+        """The shadow ray from ``si`` towards the light ``ds``, testing occluders up to the
+        light's distance (``squared``: strict's squared distance): Mitsuba's spawn offset, or
+        with ``min_distance`` from that distance along the ray. Exact blob points
+        (``on_exact``; None: the scene has none) keep the spawn offset: they may lie up to the
+        mesh's error inside the mesh."""
+        reach = dr.square(ds.dist) if squared else ds.dist
+        if self.min_distance == 0 or on_exact is not None:
+            if squared:
+                offset = si.spawn_ray(ds.d)
+                offset.maxt = reach * (1.0 - SHADOW_EPSILON)
+            else:
+                offset = si.spawn_ray_to(ds.p)
+            if self.min_distance == 0:
+                return offset
         eps = self.min_distance
-        return mi.Ray3f(dr.fma(ds.d, eps, si.p), ds.d, dr.maximum(reach - eps, 0.0), si.time,
-                        si.wavelengths)
+        along = mi.Ray3f(dr.fma(ds.d, eps, si.p), ds.d, dr.maximum(reach - eps, 0.0), si.time,
+                         si.wavelengths)
+        return along if on_exact is None else dr.select(on_exact, offset, along)
 
     @staticmethod
     def _environment(scene: mi.Scene, d: mi.Vector3f, active: mi.Bool) -> mi.Spectrum:
@@ -375,20 +384,10 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
                         * lit_scale
                 lit = active_next & (dr.max(dr.abs(value * em_weight)) > 0)
-                if self.min_distance == 0:
-                    shadow = si.spawn_ray_to(ds.p)
-                else:
-                    shadow = self._shadow(si, ds, ds.dist)
-                if dr.hint(has_exact and self.min_distance != 0, mode="scalar"):
-                    # an exact point may lie up to the mesh's error inside it: the normal offset
-                    shadow = dr.select(on_exact, si.spawn_ray_to(ds.p), shadow)
+                exact_lanes = on_exact if has_exact else None
+                shadow = self._shadow(si, ds, False, exact_lanes)
                 if dr.hint(strict, mode="scalar"):
-                    far = self._shadow(si, ds, dr.square(ds.dist))
-                    if dr.hint(has_exact and self.min_distance != 0, mode="scalar"):
-                        far_mesh = si.spawn_ray(ds.d)
-                        far_mesh.maxt = dr.square(ds.dist) * (1.0 - SHADOW_EPSILON)
-                        far = dr.select(on_exact, far_mesh, far)
-                    shadow = dr.select(squared, far, shadow)
+                    shadow = dr.select(squared, self._shadow(si, ds, True, exact_lanes), shadow)
                 blocked = scene.ray_test(shadow, lit)
                 L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
 

@@ -478,9 +478,9 @@ def _integrator(w: _Writer, integrator: str, page: int, blobs: bool = False) -> 
         w.boolean("exact_hits", True, "blob hits moved onto the tutorial's exact surface, rays "
                   "leaving them without Mitsuba's spawn offset, as the original's (false: the "
                   "mesh's hits, as path sees them)")
-    w.leaf("float", "rays leave hits from the tutorial's sphere "
-            "epsilon along their direction (spec 2.3), not by Mitsuba's normal offset: where "
-            "two spheres meet, as page 1's at x = 320", name="min_distance", value="$min_distance")
+    w.leaf("float", "rays leave hits from the tutorial's sphere epsilon along their direction "
+           "(spec 2.3), not by Mitsuba's normal offset: where two spheres meet, as page 1's at "
+           "x = 320", name="min_distance", value="$min_distance")
     w.string("quirks", "$quirks", "clean: path's expectation; strict: the original's quirks"
              + (" (page 1 has none)" if page == 1 else ""))
     w.close("integrator")
