@@ -269,6 +269,48 @@ def test_stouffer_clips_a_lone_outlier_and_skips_noiseless_channels():
     assert stouffer(s, np.zeros((4, 4), int), "objects").tests == 0
 
 
+def test_t_to_z_keeps_the_p_value():
+    """Closed forms: Student's t with 1 degree of freedom is Cauchy, P(T < -t) = 1/2 -
+    atan(t)/pi; with infinite degrees of freedom t is already normal."""
+    from scipy.special import ndtr
+    from codermind_harness.metrics import t_to_z
+    t = np.array([-3.0, -0.5, 0.0, 0.5, 3.0, 40.0, np.nan])
+    z = t_to_z(t, 1.0)
+    lower = 0.5 - np.arctan(np.abs(t[:-1])) / np.pi
+    assert np.allclose(ndtr(-np.abs(z[:-1])), lower, rtol=1e-9, atol=0)
+    assert np.array_equal(np.sign(z[:-1]), np.sign(t[:-1])) and np.isnan(z[-1])
+    assert np.array_equal(t_to_z(t[:-1], np.inf), t[:-1])
+    assert abs(z[5]) < 40.0 and abs(z[5]) > 2.0     # far out: shrunk, not lost to 1 - p
+
+
+def test_welch_dof_closed_forms():
+    from codermind_harness.metrics import welch_dof
+    assert welch_dof(1.0, 0.0, 15, 7) == pytest.approx(15)      # one side's noise alone
+    assert welch_dof(1.0, 1.0, 15, 15) == pytest.approx(30)     # equal sides: the sum
+    assert welch_dof(0.0, 0.0, 15, 15) == np.inf
+    with pytest.raises(ValueError, match="degrees of freedom"):
+        welch_dof(1.0, 1.0, 0, 15)
+
+
+def test_pooled_z_has_sd_one_at_16_samples_a_side():
+    """Null: both sides 16 iid normal samples per sub-sample. The raw ratio is a Welch t
+    with 15-30 degrees of freedom (sd ~1.035), which Stouffer's Z over independent values
+    inherits, and a pooled test at 3.8 feels several times over; the normal scores of the t
+    (signed_z with the degrees of freedom) have sd 1, and so does their Z over 2000 groups of
+    256 (sampling error +-0.016 at 1 sd)."""
+    from codermind_harness.metrics import signed_z
+    rng = np.random.default_rng(11)
+    n, groups = 16, 2000
+    xa = rng.normal(size=(groups, 256, 1, n))
+    xb = rng.normal(size=(groups, 256, 1, n))
+    ma, mb = xa.mean(-1), xb.mean(-1)
+    va, vb = xa.var(-1, ddof=1) / n, xb.var(-1, ddof=1) / n
+    raw = signed_z(ma, va, mb, vb, 0.0, 0.0)
+    fixed = signed_z(ma, va, mb, vb, 0.0, 0.0, n - 1, n - 1)
+    assert 1.025 < raw.std() < 1.045 and abs(fixed.std() - 1.0) < 0.004
+    assert 0.95 < (fixed[..., 0].sum(1) / 16.0).std() < 1.05
+
+
 def test_flip_limit_formula():
     from codermind_harness.metrics import flip_limit
     assert flip_limit(0.0, 100) == pytest.approx(1e-3)

@@ -162,7 +162,7 @@ def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, def
                   iid: bool = False) -> SideImage:
     """``sides.render_mitsuba`` on a worker, the loaded scene kept for the next task."""
     from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
-    from .sides import encode_mitsuba, load_mitsuba
+    from .sides import encode_mitsuba, load_mitsuba, mitsuba_dof
     t0 = time.perf_counter()
     _variant(variant)
     key = (bundle.digest, grid, tuple(sorted(defines.items())), variant, iid)
@@ -172,7 +172,7 @@ def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, def
         _WORKER["scenes"][key] = (scenes, settings)
     scenes, settings = _WORKER["scenes"][key]
     t1 = time.perf_counter()
-    mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance)
+    mean, var, done, times = render_linear(scenes, spp, seed, variance=variance)
     t2 = time.perf_counter()
     exposures = None
     if settings.page == 4 and len(exposure_seeds):
@@ -180,7 +180,8 @@ def _mitsuba_task(bundle: Bundle, grid: Grid, spp: int, seed: int, exposure, def
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, t2 - t0, t1 - t0, exposures, time.perf_counter() - t2)
+                     done, t2 - t0, t1 - t0, exposures, time.perf_counter() - t2,
+                     mitsuba_dof(variance, times))
 
 
 def _runner_on_worker(bundle: Bundle, width: int, height: int, page: int):

@@ -435,9 +435,11 @@ def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
                  th: Thresholds) -> dict:
     """Stouffer's Z of the signed per-sub-sample z over tiles of 16 x 16 sub-samples and over
     each object's sub-samples (the shape Mitsuba's lens-centre ray sees first; the sky is one
-    group), each family at ``Thresholds.pooled_alpha`` Sidak-corrected (metrics.stouffer)."""
+    group), each family at ``Thresholds.pooled_alpha`` Sidak-corrected (metrics.stouffer).
+    Each z is the normal score of its Welch t (both sides' degrees of freedom known), so that
+    the pooled Z has sd 1 at low sample counts too."""
     zs = metrics.signed_z(mits.linear, mits.variance, port.linear, port.variance,
-                          th.rtol, th.atol)
+                          th.rtol, th.atol, mits.dof, port.dof)
     out = {"tiles": metrics.stouffer(zs, metrics.tile_labels(zs.shape[:2]), "tiles",
                                      th.pooled_alpha)}
     labels_, names = sides.object_labels(xml, grid, defines)

@@ -110,6 +110,8 @@ class SideImage:
     load_seconds: float = 0.0
     probe_exposures: list[float] | None = None   #: auto exposure per seed asked for
     probe_seconds: float = 0.0
+    dof: int | None = None   #: degrees of freedom of ``variance`` (Mitsuba: passes - 1, the
+                             #: port: rays - 1); None: not estimated
 
 
 # -- the scene and its twin ------------------------------------------------------------------
@@ -309,7 +311,7 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     t1 = time.perf_counter()
     scenes = light_scenes(scene) if settings.lights == "sum" else scene
     bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
-    mean, var, done, _ = render_linear(scenes, spp, seed, variance=variance, progress=bar)
+    mean, var, done, times = render_linear(scenes, spp, seed, variance=variance, progress=bar)
     t2 = time.perf_counter()
     exposures = None
     if settings.page == 4 and len(exposure_seeds):
@@ -318,7 +320,13 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, t2 - t0, t1 - t0, exposures, seconds - (t2 - t0))
+                     done, t2 - t0, t1 - t0, exposures, seconds - (t2 - t0),
+                     mitsuba_dof(variance, times))
+
+
+def mitsuba_dof(variance: bool, times: list) -> int | None:
+    """Degrees of freedom of the variance ``render_linear`` estimates from its pass means."""
+    return len(times) - 1 if variance and len(times) > 1 else None
 
 
 # -- the port --------------------------------------------------------------------------------
@@ -346,7 +354,7 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
         var = np.zeros_like(var)
     return SideImage(f"port ({result.mode})", result.linear.astype(np.float64), var,
                      np.clip(result.encoded.astype(np.float64), 0.0, 1.0), result.complexity,
-                     seconds)
+                     seconds, dof=result.complexity - 1 if result.complexity > 1 else None)
 
 
 def either_tie(mits: SideImage, first: SideImage, last: SideImage, sub: int
@@ -368,7 +376,7 @@ def either_tie(mits: SideImage, first: SideImage, last: SideImage, sub: int
     linear = np.where(sub_take, last.linear, first.linear)
     encoded = np.where(take[:, :, None], last.encoded, first.encoded)
     merged = SideImage(first.label, linear, first.variance, encoded, first.spp,
-                       first.seconds + last.seconds)
+                       first.seconds + last.seconds, dof=first.dof)
     return merged, int(tie.sum()), int(take.sum())
 
 
