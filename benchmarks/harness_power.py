@@ -25,9 +25,11 @@ sys.path[:0] = [str(ROOT / "plugins"), str(ROOT / "reference")]
 SCENES = ROOT / "scenes"
 
 #: Grids: page 1 every 4th pixel (deterministic); page 4: the marble sphere and the floor
-#: (lens blur, turbulence, bump), and a patch of the glass blob.
+#: (lens blur, turbulence, bump), a patch of the glass blob, and the sphere Light0 lights.
 GRIDS = {"page1": ("page1", None, 4), "page4-marble": ("page4", (392, 130, 440, 170), 1),
-         "page4-blob": ("page4", (300, 250, 332, 274), 1)}
+         "page4-blob": ("page4", (300, 250, 332, 274), 1),
+         # the sphere where Light0 lands (it lights 0.2 % of the frame; ~47 % of the radiance here)
+         "page4-light0": ("page4", (56, 248, 88, 272), 1)}
 
 
 def scale_rgb(old: str, factor: float) -> str:
@@ -74,6 +76,8 @@ def cases():
                     rgb_edit(r'<rgb name="intensity" value="([^"]+)"', f), {}))
         out.append(("light intensity", f"+{pct} %, Light0", "page4-marble",
                     rgb_edit(r'<rgb name="intensity" value="([^"]+)"', f), {}))
+        out.append(("light intensity", f"+{pct} %, Light0", "page4-light0",
+                    rgb_edit(r'<rgb name="intensity" value="([^"]+)"', f), {}))
         out.append(("light intensity", f"+{pct} %, Light1", "page4-marble",
                     rgb_edit(r'<rgb name="intensity" value="([^"]+)"/>  <!-- Intensity, line 114',
                              f), {}))
@@ -93,6 +97,7 @@ def cases():
     out.append(("none (control)", "-", "page1", None, {}))
     out.append(("none (control)", "-", "page4-marble", None, {}))
     out.append(("none (control)", "-", "page4-blob", None, {}))
+    out.append(("none (control)", "-", "page4-light0", None, {}))
     return out
 
 

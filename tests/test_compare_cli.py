@@ -50,7 +50,7 @@ def test_page4_crop_compare_passes(tmp_path):
     assert z["pass_rate"] >= 0.99 and rec["flip_mean"] <= 0.01
     # the noise is real and the variances right: z spread about 1 over thousands of tests
     assert z["noisy_tests"] > 1000 and 0.9 < z["z_sd"] < 1.1
-    # the pooled tests: Stouffer's Z over 29 tiles and over the objects the crop sees
+    # the pooled tests: the pooled difference over 29 tiles and over the objects the crop sees
     tiles, objects = rec["pooled"]["tiles"], rec["pooled"]["objects"]
     assert tiles["passed"] and objects["passed"] and tiles["groups"] == 29
     assert 0.7 < tiles["z_sd"] < 1.3 and objects["groups"] >= 1

@@ -311,6 +311,47 @@ def test_pooled_z_has_sd_one_at_16_samples_a_side():
     assert 0.95 < (fixed[..., 0].sum(1) / 16.0).std() < 1.05
 
 
+def _sides_with_one_mean(rng, n=64, shape=(48, 64)):
+    """Two unbiased sides of mean 1 per sample, distributed unlike each other: ``rare`` is
+    20 with probability 0.05 (a rare bright path), ``smooth`` is normal(1, 0.1). Returns
+    each side's (mean, variance of the mean) over ``n`` samples per sub-sample, (H, W, 3)."""
+    rare = np.where(rng.random(shape + (3, n)) < 0.05, 20.0, 0.0)
+    smooth = rng.normal(1.0, 0.1, size=shape + (3, n))
+    return [(x.mean(-1), x.var(-1, ddof=1) / n) for x in (rare, smooth)]
+
+
+def test_pooled_difference_is_centred_where_stouffer_is_not():
+    """Null: both sides' mean is exactly 1, but the rare side's sub-sample mean and its
+    variance estimate rise together, so the per-sub-sample z has E[z] < 0 and Stouffer's Z over
+    3072 of them fails (Z about -16 to -19); the pooled difference's numerator has mean 0 and
+    passes."""
+    from codermind_harness.metrics import pooled_difference, signed_z, stouffer
+    rng = np.random.default_rng(5)
+    (ra, rv), (sa, sv) = _sides_with_one_mean(rng)
+    one = np.zeros(ra.shape[:2], int)
+    z = signed_z(ra, rv, sa, sv, 0.0, 0.0, 63, 63)
+    assert not stouffer(z, one, "objects").passed
+    p = pooled_difference(ra, rv, sa, sv, one, "objects", 63, 63)
+    assert p.passed and p.tests == 3 and p.max_abs_z < p.z_critical
+
+
+def test_pooled_difference_catches_a_small_widespread_bias():
+    """The same two sides at 256 samples, the rare one 10 % brighter (E = 1.1) over one
+    16 x 16 tile: per sub-sample 0.1 / sqrt(19 / 256) ~ 0.37 sd, invisible alone (the
+    per-sub-sample critical is ~4.9); over the tile's 256 about 5.9 sd, less the rare side's
+    own spread in the variance sum: that tile fails in all three channels, no other does."""
+    from codermind_harness.metrics import pooled_difference, tile_labels
+    rng = np.random.default_rng(6)
+    (ra, rv), (sa, sv) = _sides_with_one_mean(rng, n=256)
+    ra, rv = ra.copy(), rv.copy()
+    ra[16:32, 16:32] *= 1.1
+    rv[16:32, 16:32] *= 1.21
+    lab = tile_labels(ra.shape[:2])
+    p = pooled_difference(ra, rv, sa, sv, lab, "tiles", 255, 255)
+    assert not p.passed and {f[0] for f in p.failing} == {1 * 4 + 1}
+    assert {f[1] for f in p.failing} == set("RGB")
+
+
 def test_flip_limit_formula():
     from codermind_harness.metrics import flip_limit
     assert flip_limit(0.0, 100) == pytest.approx(1e-3)

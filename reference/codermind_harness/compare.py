@@ -246,7 +246,7 @@ def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | Non
             g, c, zz, n = p["failing"][0]
             failures.append(f"pooled z over {kind}: {len(p['failing'])}"
                             f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
-                            f"{p['z_critical']:.3g} (worst: {g} {c}, Stouffer Z {zz:.3g} over "
+                            f"{p['z_critical']:.3g} (worst: {g} {c}, Z {zz:.3g} over "
                             f"{n} sub-samples)")
     heatmap = out / f"{label}.compare.png"
     write_heatmap(heatmap, mits.encoded, port.encoded, rows, flip_map, z, port.label,
@@ -433,19 +433,21 @@ def _statistical(record: dict, failures: list, a, b, r, tol, slope, var_log_e,
 
 def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
                  th: Thresholds) -> dict:
-    """Stouffer's Z of the signed per-sub-sample z over tiles of 16 x 16 sub-samples and over
-    each object's sub-samples (the shape Mitsuba's lens-centre ray sees first; the sky is one
-    group), each family at ``Thresholds.pooled_alpha`` Sidak-corrected (metrics.stouffer).
-    Each z is the normal score of its Welch t (both sides' degrees of freedom known), so that
-    the pooled Z has sd 1 at low sample counts too."""
-    zs = metrics.signed_z(mits.linear, mits.variance, port.linear, port.variance,
-                          th.rtol, th.atol, mits.dof, port.dof)
-    out = {"tiles": metrics.stouffer(zs, metrics.tile_labels(zs.shape[:2]), "tiles",
-                                     th.pooled_alpha)}
+    """The pooled difference sum(a - b) / sqrt(sum(var_a + var_b)) over tiles of 16 x 16
+    sub-samples and over each object's sub-samples (the shape Mitsuba's lens-centre ray sees
+    first; the sky is one group), as a normal score with Welch-Satterthwaite degrees of
+    freedom, each family at ``Thresholds.pooled_alpha`` Sidak-corrected
+    (metrics.pooled_difference: centred for any two unbiased sides, which Stouffer's Z of
+    the per-sub-sample z is not)."""
+    dofs = [np.inf if s.dof is None else s.dof for s in (mits, port)]
+    args = (mits.linear, mits.variance, port.linear, port.variance)
+    out = {"tiles": metrics.pooled_difference(*args, metrics.tile_labels(mits.linear.shape[:2]),
+                                              "tiles", *dofs, th.pooled_alpha, th.rtol, th.atol)}
     labels_, names = sides.object_labels(xml, grid, defines)
     labels_ = np.where(labels_ < 0, len(names), labels_)
-    out["objects"] = metrics.stouffer(zs, labels_, "objects", th.pooled_alpha,
-                                      names=names + ["sky"])
+    out["objects"] = metrics.pooled_difference(*args, labels_, "objects", *dofs,
+                                               th.pooled_alpha, th.rtol, th.atol,
+                                               names=names + ["sky"])
     return {k: asdict(v) for k, v in out.items()}
 
 

@@ -472,6 +472,53 @@ def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED
                       float(zs.std()) if tests > 1 else None, bad[:10])
 
 
+def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: str,
+                      dof_a: float, dof_b: float, alpha: float = POOLED_ALPHA,
+                      rtol: float = RTOL, atol: float = ATOL, min_count: int = 16,
+                      names=None) -> PooledTest:
+    """The pooled difference of each group (``labels``: int (H, W), one group per value,
+    negative: none) and channel, over its noisy channels (as :func:`signed_z`):
+    t = sum(a - b) / sqrt(sum(var_a + var_b)), as a normal score with the Welch-Satterthwaite
+    degrees of freedom of that variance sum (each side's ``dof``); two-sided, Sidak-corrected
+    over every group and channel with at least ``min_count`` noisy values.
+
+    Unlike Stouffer's Z of the per-sub-sample z (:func:`stouffer`), whose null mean is 0 only
+    when both sides' sub-sample means are distributed alike (a side whose mean and variance
+    estimate rise together, e.g. rare bright paths, pulls E[z] off 0), its numerator has mean
+    0 for any two unbiased sides; the degrees of freedom widen its tails where a few noisy
+    sub-samples dominate the variance sum (docs/results/false-alarm.md)."""
+    from scipy.special import ndtri
+    a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
+    va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
+    noisy = np.sqrt(va + vb) > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    lab = np.asarray(labels)
+    out, where = [], []
+    for g in np.unique(lab[lab >= 0]):
+        m = lab == g
+        for c in range(a.shape[2]):
+            k = noisy[..., c] & m
+            n = int(k.sum())
+            if n < min_count:
+                continue
+            x, y = va[..., c][k], vb[..., c][k]
+            v = float(x.sum() + y.sum())
+            t = float((a[..., c][k] - b[..., c][k]).sum()) / math.sqrt(v)
+            den = float(np.square(x).sum() / dof_a + np.square(y).sum() / dof_b)
+            dof = v * v / den if den > 0 else np.inf
+            out.append(float(t_to_z(t, dof)))
+            where.append((g, c, n))
+    tests = len(out)
+    level = float(sidak_alpha(alpha, tests))
+    crit = float(-ndtri(level / 2.0))
+    zs = np.array(out)
+    bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
+           for (g, c, n), x in zip(where, out) if abs(x) > crit]
+    bad.sort(key=lambda t: -abs(t[2]))
+    return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
+                      float(np.abs(zs).max()) if tests else None,
+                      float(zs.std()) if tests > 1 else None, bad[:10])
+
+
 def tile_labels(shape: tuple[int, int], tile: int = TILE) -> np.ndarray:
     """(H, W) tile index of each sub-sample, tiles of ``tile`` x ``tile``."""
     h, w = shape
