@@ -15,8 +15,9 @@ pooled tests compare runs (tiles and objects, ``compare.pooled_tests``' groups a
 * **the bias**: Mitsuba - port summed over all seeds, per object and per 16 x 16 tile, as
   Z = sum(a - b) / sqrt(sum(var_a + var_b)) and as a share of the port's radiance.
 
-Each statistic is computed with the raw ratio z = (a - b) / sd (``raw``) and with the normal
-scores of the Welch t (``welch``: what compare pools).
+Three statistics: Stouffer's Z of the raw ratio z = (a - b) / sd (``raw``), of the normal
+scores of each sub-sample's Welch t (``welch``), and the pooled difference
+(``difference``, ``metrics.pooled_difference``: what compare pools).
 
     python benchmarks/pooled_pairs.py [SCENE] [--rect x0,y0,x1,y1] [--spp 16] [--seeds 58]
         [--first-seed 3000] [--blob-max-error E] [--keep DIR]
@@ -62,13 +63,18 @@ def render_seeds(args) -> list[dict]:
     return out
 
 
-def verdicts(runs: list[dict], welch: bool):
+def verdicts(runs: list[dict], mode: str):
     from codermind_harness import metrics
     lab = np.asarray(runs[0]["labels"])
     lab = np.where(lab < 0, len(runs[0]["names"]), lab)
     tiles = metrics.tile_labels(lab.shape)
 
     def fails(a, va, b, vb, da, db) -> bool:
+        if mode == "difference":        # what compare pools
+            return not (metrics.pooled_difference(a, va, b, vb, tiles, "tiles", da, db).passed
+                        and metrics.pooled_difference(a, va, b, vb, lab, "objects", da,
+                                                      db).passed)
+        welch = mode == "welch"
         z = metrics.signed_z(a, va, b, vb, dof_a=da if welch else None,
                              dof_b=db if welch else None)
         return not (metrics.stouffer(z, tiles, "tiles").passed
@@ -148,12 +154,12 @@ def main() -> int:
     print("| statistic | port vs port | Mitsuba vs Mitsuba | Mitsuba vs port (N x N) | 95 % "
           "(bootstrap) | same seed |")
     print("| --- | --- | --- | --- | --- | --- |")
-    for welch in (False, True):
-        nulls, cross = verdicts(runs, welch)
+    for mode in ("raw", "welch", "difference"):
+        nulls, cross = verdicts(runs, mode)
         boot = [cross[np.ix_(rng.integers(0, n, n), rng.integers(0, n, n))].mean()
                 for _ in range(args.boot)]
         cells = [f"{k} / {m} = {100 * k / m:.2f} %" for k, m in nulls.values()]
-        print(f"| {'welch' if welch else 'raw'} | {cells[0]} | {cells[1]} | "
+        print(f"| {mode} | {cells[0]} | {cells[1]} | "
               f"{100 * cross.mean():.2f} % | {100 * np.percentile(boot, 2.5):.2f}-"
               f"{100 * np.percentile(boot, 97.5):.2f} % | {int(cross.diagonal().sum())} / {n} |")
     for shift in (0, 1):

@@ -281,6 +281,7 @@ def test_t_to_z_keeps_the_p_value():
     assert np.array_equal(np.sign(z[:-1]), np.sign(t[:-1])) and np.isnan(z[-1])
     assert np.array_equal(t_to_z(t[:-1], np.inf), t[:-1])
     assert abs(z[5]) < 40.0 and abs(z[5]) > 2.0     # far out: shrunk, not lost to 1 - p
+    assert t_to_z(np.array([500.0]), 4000.0)[0] == 500.0   # p underflows: t, not inf
 
 
 def test_welch_dof_closed_forms():

@@ -425,6 +425,8 @@ def t_to_z(t, dof) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         lower = stdtr(np.where(finite, dof, 1.0), -np.abs(np.nan_to_num(t)))
         z = np.sign(t) * -ndtri(lower)          # the lower tail: accurate far out
+    # beyond double precision (p < 1e-308) the score is infinite: keep t, as far out
+    z = np.where(lower > 0, z, t)
     return np.where(np.isnan(t), np.nan, np.where(finite, z, t))
 
 
