@@ -449,7 +449,6 @@ def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED
     """Stouffer's Z = sum clip(z_i) / sqrt(n) over the noisy channels of each group (``labels``:
     int (H, W), one group per value, negative: none) and channel, two-sided, Sidak-corrected
     over every group and channel with at least ``min_count`` noisy values."""
-    from scipy.special import ndtri
     z = np.asarray(z, dtype=np.float64)
     lab = np.asarray(labels)
     zc = np.clip(z, -clip, clip)
@@ -462,16 +461,7 @@ def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED
             if v.size >= min_count:
                 out.append(float(v.sum() / math.sqrt(v.size)))
                 where.append((g, c, v.size))
-    tests = len(out)
-    level = float(sidak_alpha(alpha, tests))
-    crit = float(-ndtri(level / 2.0))
-    zs = np.array(out)
-    bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
-           for (g, c, n), x in zip(where, out) if abs(x) > crit]
-    bad.sort(key=lambda t: -abs(t[2]))
-    return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
-                      float(np.abs(zs).max()) if tests else None,
-                      float(zs.std()) if tests > 1 else None, bad[:10])
+    return _pooled_verdict(out, where, kind, alpha, names)
 
 
 def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: str,
@@ -489,7 +479,6 @@ def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: st
     estimate rise together, e.g. rare bright paths, pulls E[z] off 0), its numerator has mean
     0 for any two unbiased sides; the degrees of freedom widen its tails where a few noisy
     sub-samples dominate the variance sum (docs/results/false-alarm.md)."""
-    from scipy.special import ndtri
     a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
     noisy = np.sqrt(va + vb) > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
@@ -509,6 +498,13 @@ def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: st
             dof = v * v / den if den > 0 else np.inf
             out.append(float(t_to_z(t, dof)))
             where.append((g, c, n))
+    return _pooled_verdict(out, where, kind, alpha, names)
+
+
+def _pooled_verdict(out: list, where: list, kind: str, alpha: float, names) -> PooledTest:
+    """The family's verdict from one Z per (group, channel, count) in ``where``: two-sided at
+    ``alpha`` Sidak-corrected over the tests made."""
+    from scipy.special import ndtri
     tests = len(out)
     level = float(sidak_alpha(alpha, tests))
     crit = float(-ndtri(level / 2.0))
