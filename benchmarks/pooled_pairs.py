@@ -63,10 +63,17 @@ def render_seeds(args) -> list[dict]:
     return out
 
 
+def object_groups(runs: list[dict]) -> tuple[np.ndarray, list[str]]:
+    """(H, W) object label per sub-sample, the sky (label < 0) as one more group, as compare's
+    pooled_tests; and the groups' names."""
+    names = [str(x) for x in runs[0]["names"]] + ["sky"]
+    lab = np.asarray(runs[0]["labels"])
+    return np.where(lab < 0, len(names) - 1, lab), names
+
+
 def verdicts(runs: list[dict], mode: str):
     from codermind_harness import metrics
-    lab = np.asarray(runs[0]["labels"])
-    lab = np.where(lab < 0, len(runs[0]["names"]), lab)
+    lab, _ = object_groups(runs)
     tiles = metrics.tile_labels(lab.shape)
 
     def fails(a, va, b, vb, da, db) -> bool:
@@ -101,9 +108,7 @@ def bias(runs: list[dict]) -> list[str]:
     d = sum(r["ml"] - r["pl"] for r in runs)
     v = sum(r["mv"] + r["pv"] for r in runs)
     p = sum(r["pl"] for r in runs)
-    names = [str(x) for x in runs[0]["names"]] + ["sky"]
-    lab = np.asarray(runs[0]["labels"])
-    lab = np.where(lab < 0, len(names) - 1, lab)
+    lab, names = object_groups(runs)
     lines = []
     for kind, groups in (("object", lab), ("tile", metrics.tile_labels(lab.shape))):
         for g in np.unique(groups):

@@ -396,12 +396,19 @@ def signed_z(mean_a, var_a, mean_b, var_b, rtol: float = RTOL, atol: float = ATO
     a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
     sd = np.sqrt(va + vb)
-    noisy = sd > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    noisy = noisy_channels(a, va, b, vb, rtol, atol)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(noisy, (a - b) / np.where(noisy, sd, 1.0), np.nan)
     if dof_a is None or dof_b is None:
         return t
     return t_to_z(t, welch_dof(va, vb, dof_a, dof_b))
+
+
+def noisy_channels(a: np.ndarray, var_a: np.ndarray, b: np.ndarray, var_b: np.ndarray,
+                   rtol: float = RTOL, atol: float = ATOL) -> np.ndarray:
+    """Channels whose noise sd exceeds the float tolerance rtol max(|a|, |b|) + atol: the
+    ones the pooled tests pool (the others carry no noise)."""
+    return np.sqrt(var_a + var_b) > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
 
 
 def welch_dof(var_a, var_b, dof_a: float, dof_b: float) -> np.ndarray:
@@ -481,7 +488,7 @@ def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: st
     sub-samples dominate the variance sum (docs/results/false-alarm.md)."""
     a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
-    noisy = np.sqrt(va + vb) > rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    noisy = noisy_channels(a, va, b, vb, rtol, atol)
     lab = np.asarray(labels)
     out, where = [], []
     for g in np.unique(lab[lab >= 0]):
