@@ -328,3 +328,31 @@ def test_zone_field_is_the_spec_table(llvm):
                          / (ref.SPEC_X[np.minimum(k, 10)] - ref.SPEC_X[k - 1]))
     slope = np.where(x32[inner] < 1.0, -0.9, slope)
     assert np.abs(np.array(df)[inner] - slope).max() < 1e-5
+
+
+def test_exit_hit_is_the_chord_of_a_sphere(llvm):
+    """One exact-field source is the sphere |p| = R. A ray leaving a point of it at angle
+    a into the surface comes out after the chord 2 R sin(a), closed form, with the normal
+    p / R there; given a miss (the mesh has no hit where a grazing chord runs between it
+    and the surface), ``exit_hit`` finds it; a ray heading out gets no exit."""
+    import drjit as dr
+    mi = llvm
+    R = 80.0
+    shape = mi.load_dict({"type": "blob", "radius": R, "max_error": 0.5, "field": "exact",
+                          "center0": mi.ScalarPoint3f(0, 0, 0)})
+    blob = mi.load_dict({"type": "scene", "blob": shape}).shapes()[0]
+    angles = np.radians([2.0, 20.0, 60.0, -10.0])      # negative: heading out
+    o = np.stack([np.zeros(4), np.zeros(4), np.full(4, R)])        # on the sphere, normal +z
+    d = np.stack([np.cos(angles), np.zeros(4), -np.sin(angles)])
+    rays = mi.Ray3f(mi.Point3f(*o), mi.Vector3f(*d))
+    miss = dr.zeros(mi.SurfaceInteraction3f, 4)
+    miss.t = mi.Float(np.inf)
+    out, ok = blob.exit_hit(rays, miss, mi.Float(np.inf), True)
+    assert np.array(ok).tolist() == [True, True, True, False]
+    t = np.array(out.t)[:3]
+    assert np.allclose(t, 2 * R * np.sin(angles[:3]), rtol=1e-4)
+    n, p = np.array(out.n)[:, :3], np.array(out.p)[:, :3]
+    assert np.allclose(n, p / R, atol=1e-4)
+    # before the next hit only: a nearer hit of the scene wins
+    _, ok = blob.exit_hit(rays, miss, mi.Float(1.0), True)
+    assert not np.array(ok).any()

@@ -62,7 +62,10 @@ class TutorialIntegrator(mi.SamplingIntegrator):
          whose exact crossing lies within the tutorial's blob epsilon of the ray's origin
          (0.01, spec 2.3: the surface the ray left; rays leave exact points without
          Mitsuba's spawn offset, as the tutorial's do) is passed through without shading
-         or a segment. ``false``: the mesh's hits, as :monosp:`path` sees them
+         or a segment. A ray that leaves an exact point into the surface and runs between
+         the inscribed mesh and the surface (a grazing chord, e.g. a reflection a bump
+         turns inwards) comes out where the surface says (``Blob.exit_hit``), not where the
+         mesh lets it escape. ``false``: the mesh's hits, as :monosp:`path` sees them
          (Default: ``true``)
 
      * - min_distance
@@ -201,18 +204,19 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
     @staticmethod
     def _refine(exact: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
-                ) -> tuple[mi.SurfaceInteraction3f, mi.Bool, mi.Bool]:
+                ) -> tuple[mi.SurfaceInteraction3f, mi.Bool, mi.UInt32]:
         """``si`` moved onto the exact surface of the shape it hit, if that shape is one of
-        ``exact``; the lanes whose hit is the surface the ray leaves; the lanes moved."""
+        ``exact``; the lanes whose hit is the surface the ray leaves; which shape of
+        ``exact`` was hit (its index + 1; 0: none)."""
         behind = mi.Bool(False)
-        on_exact = mi.Bool(False)
-        for shape in exact:
+        which = mi.UInt32(0)
+        for k, shape in enumerate(exact):
             on = active & si.is_valid() & _is(si.shape, shape)
             moved = shape.exact_hit(ray, si, on)
             behind |= on & shape.left_surface(ray, si, moved)
             si = moved
-            on_exact |= on
-        return si, behind, on_exact
+            which = dr.select(on, k + 1, which)
+        return si, behind, which
 
     @staticmethod
     def _past(ray: mi.Ray3f, hit: mi.SurfaceInteraction3f) -> mi.Ray3f:
@@ -283,6 +287,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         prev_si = dr.zeros(mi.Interaction3f)
         prev_pdf = mi.Float(1.0)
         prev_delta = mi.Bool(True)
+        origin = mi.UInt32(0)                     # the exact shape the ray leaves (index + 1)
         valid_ray = mi.Bool(scene.environment() is not None)
         active = mi.Bool(active)
 
@@ -299,16 +304,27 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             on_exact = mi.Bool(False)
             from_mesh = si
             if dr.hint(has_exact, mode="scalar"):
-                si, behind, on_exact = self._refine(exact, ray, si, active)
+                si, behind, which = self._refine(exact, ray, si, active)
                 past = self._past(ray, from_mesh)
                 si2 = scene.ray_intersect(past, ray_flags=mi.RayFlags.All, coherent=False,
                                           active=behind)
                 from_mesh = dr.select(behind, si2, from_mesh)
-                si2, behind2, on_exact2 = self._refine(exact, past, si2, behind)
+                si2, behind2, which2 = self._refine(exact, past, si2, behind)
                 ray = dr.select(behind, past, ray)
                 si = dr.select(behind, si2, si)
-                on_exact = dr.select(behind, on_exact2, on_exact)
+                which = dr.select(behind, which2, which)
                 behind &= behind2
+                # a ray that left an exact point into the surface can run between the
+                # inscribed mesh and the surface (a grazing chord): where it comes out, the
+                # mesh has no hit (the ray escapes) or one the surface is not near (Newton
+                # left it unmoved); the exact surface gives the exit
+                for k, shape in enumerate(exact):
+                    unmoved = (which == k + 1) & (si.t == from_mesh.t)
+                    limit = dr.select(unmoved, dr.inf, si.t)
+                    si, out = shape.exit_hit(ray, si, limit, active & (origin == k + 1))
+                    which = dr.select(out, k + 1, which)
+                    behind &= _not(out)
+                on_exact = which > 0
             active &= _not(behind)
 
             # Emission seen by this ray: the environment on escape, an area light on a hit
@@ -428,6 +444,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
                 ray = dr.select(behind, self._past(ray, from_mesh),
                                 dr.select(on_exact, leave, self._leave(si, wo_world)))
+                # past the mesh the ray keeps its line, so its chord's origin
+                origin = dr.select(behind, origin, which)
             else:
                 ray = self._leave(si, wo_world)
 

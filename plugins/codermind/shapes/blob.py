@@ -255,6 +255,48 @@ class Blob(mi.Mesh):
     #: origin is the surface the ray leaves (tutorialpath's exact_hits)
     SELF_HIT = 0.01
 
+    def _along(self, ray: mi.Ray3f, origin: mi.Point3f):
+        """Object-space offsets of ``origin`` from the centres, ``ray.d`` in object space
+        (an affine map keeps t) and the world normal map."""
+        linear = self.matrix[:3, :3]
+        inv = np.linalg.inv(linear)
+        shift = self.matrix[:3, 3]
+        mat = lambda m: mi.ScalarMatrix3f([[float(x) for x in row] for row in m])  # noqa: E731
+        to_obj, normal_to_world = mat(inv), mat(inv.T)
+        po = to_obj @ (mi.Vector3f(dr.detach(origin)) - mi.ScalarVector3f(*map(float, shift)))
+        do = to_obj @ mi.Vector3f(dr.detach(ray.d))
+        rel = [po - mi.ScalarVector3f(*map(float, c)) for c in self.centers]
+        return rel, do, normal_to_world
+
+    def _residual(self, rel: list, do: mi.Vector3f, s: mi.Float
+                  ) -> tuple[mi.Float, mi.Float, mi.Float]:
+        """(F - 1, dF/ds, d2F/ds2 within the zones) at ``rel + s do``."""
+        inv_r2 = 1.0 / (self.radius * self.radius)
+        value, slope, curve = mi.Float(-1.0), mi.Float(0.0), mi.Float(0.0)
+        for r in rel:
+            q = r + s * do
+            f, df = self._zone(dr.squared_norm(q) * inv_r2)
+            value += f
+            slope += df * (2.0 * inv_r2) * dr.dot(q, do)
+            curve += df * (2.0 * inv_r2) * dr.squared_norm(do)
+        return value, slope, curve
+
+    def _frame_at(self, rel: list, do: mi.Vector3f, s: mi.Float, normal_to_world
+                  ) -> tuple[mi.Frame3f, mi.Bool]:
+        """The ``normals`` option's shading frame at ``rel + s do`` (not ``flat``)."""
+        inv_r2 = 1.0 / (self.radius * self.radius)
+        n = mi.Vector3f(0.0)
+        for r in rel:
+            q = r + s * do
+            d2 = dr.squared_norm(q)
+            if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10)
+                w = dr.select(d2 > 0.001, self.radius ** 2 / dr.square(d2), 0.0)
+            else:                               # -grad F: outward
+                w = -self._zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
+            n += w * q
+        n = normal_to_world @ n
+        return mi.Frame3f(dr.normalize(n)), dr.squared_norm(n) > 0
+
     def exact_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f,
                   active: mi.Bool) -> mi.SurfaceInteraction3f:
         """``si`` (a hit of ``ray`` on this mesh) moved onto the exact surface, where the
@@ -271,32 +313,12 @@ class Blob(mi.Mesh):
         detached: ``p`` keeps the mesh's derivatives (vertex positions), if any."""
         if len(self.centers) == 0:
             return si
-        linear = self.matrix[:3, :3]
-        inv = np.linalg.inv(linear)
-        shift = self.matrix[:3, 3]
-        mat = lambda m: mi.ScalarMatrix3f([[float(x) for x in row] for row in m])  # noqa: E731
-        to_obj, normal_to_world = mat(inv), mat(inv.T)
-        p0 = dr.detach(si.p)
-        po = to_obj @ (mi.Vector3f(p0) - mi.ScalarVector3f(*map(float, shift)))
-        do = to_obj @ mi.Vector3f(dr.detach(ray.d))
-        rel = [po - mi.ScalarVector3f(*map(float, c)) for c in self.centers]
-        inv_r2 = 1.0 / (self.radius * self.radius)
+        rel, do, normal_to_world = self._along(ray, si.p)
         entering = dr.dot(dr.detach(si.n), dr.detach(ray.d)) < 0
-
-        def residual(s):
-            """(F - 1, dF/ds) at o + (t + s) d."""
-            value, slope = mi.Float(-1.0), mi.Float(0.0)
-            for r in rel:
-                q = r + s * do
-                x = dr.squared_norm(q) * inv_r2
-                f, df = self._zone(x)
-                value += f
-                slope += df * (2.0 * inv_r2) * dr.dot(q, do)
-            return value, slope
 
         s = mi.Float(0.0)
         for _ in range(self.REFINE_STEPS + 1):
-            g, slope = residual(s)
+            g, slope, _ = self._residual(rel, do, s)
             step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
             s = s - step
         s = s + step                    # the last step only measured (its slope: the side)
@@ -309,18 +331,9 @@ class Blob(mi.Mesh):
 
         frame = si.sh_frame
         if self.normals != "flat":
-            n = mi.Vector3f(0.0)
-            for r in rel:
-                q = r + s * do
-                d2 = dr.squared_norm(q)
-                if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10)
-                    w = dr.select(d2 > 0.001, self.radius ** 2 / dr.square(d2), 0.0)
-                else:                               # -grad F: outward
-                    w = -self._zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
-                n += w * q
-            n = normal_to_world @ n
-            ok &= dr.squared_norm(n) > 0
-            frame = mi.Frame3f(dr.normalize(dr.select(ok, n, si.sh_frame.n)))
+            frame, nonzero = self._frame_at(rel, do, s, normal_to_world)
+            ok &= nonzero
+            frame = mi.Frame3f(dr.select(ok, frame.n, si.sh_frame.n))
 
         out = mi.SurfaceInteraction3f(si)
         out.t = dr.select(ok, si.t + s, si.t)
@@ -332,6 +345,61 @@ class Blob(mi.Mesh):
             out.wi = dr.select(ok, out.sh_frame.to_local(si.sh_frame.to_world(si.wi)), si.wi)
             out.n = dr.select(ok, frame.n, si.n)
         return out
+
+    def exit_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, limit: mi.Float,
+                 active: mi.Bool) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
+        """For rays that start inside the exact surface, or on it heading INTO it (the
+        field rises along the ray at its origin): the surface where the ray comes out,
+        if that lies beyond ``SELF_HIT`` and before ``limit`` (the ray's next trusted hit
+        in the scene; ``si`` is that hit or the miss).
+
+        It is the hit the mesh cannot give where the ray runs between the inscribed mesh
+        and the surface (a grazing reflection that a bumped normal turns slightly inwards;
+        chords shorter than about sqrt(8 R max_error)) and leaves the surface without
+        entering the mesh: the mesh lets it escape, the tutorial's roots see it come out.
+        The crossing is found where the field along the ray is a parabola within its
+        zones (the guess: the exit root of the parabola through the origin's F, F' and
+        F''), then polished by Newton's method.
+        Returns ``si`` replaced by that hit (on this shape, with the ``normals`` option's
+        frame at the new point; ``flat``: the field's normal) and the lanes replaced."""
+        if len(self.centers) == 0:
+            return si, mi.Bool(False)
+        rel, do, normal_to_world = self._along(ray, ray.o)
+        g0, slope0, curve0 = self._residual(rel, do, mi.Float(0.0))
+        # inside (beyond float32's rounding of F), or on the surface heading in
+        inward = active & (curve0 < 0) & ((g0 > 4e-7) | ((slope0 > 0) & (g0 > -4e-7)))
+        disc = dr.square(slope0) - 2.0 * curve0 * dr.maximum(g0, 0.0)
+        s = dr.select(inward, (slope0 + dr.safe_sqrt(disc)) / dr.select(curve0 < 0, -curve0,
+                                                                         1.0), 0.0)
+        for _ in range(self.REFINE_STEPS + 1):
+            g, slope, _ = self._residual(rel, do, s)
+            step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
+            s = s - step
+        s = s + step
+        # grazing chords have slopes of ~1e-4 per unit: float32's rounding of F (~1e-7)
+        # then moves t by ~1e-3, so converged means a step within tolerance or F - 1 at
+        # that rounding
+        ok = inward & dr.isfinite(s) & (slope < 0) & (s > self.SELF_HIT) & (s < limit) & \
+            ((dr.abs(step) <= 1e-3 * self.max_error + 1e-6 * s) | (dr.abs(g) <= 4e-7))
+        frame, nonzero = self._frame_at(rel, do, s, normal_to_world)
+        ok &= nonzero
+        out = mi.SurfaceInteraction3f(si)
+        out.t = dr.select(ok, s, si.t)
+        out.p = dr.select(ok, dr.fma(dr.detach(mi.Vector3f(ray.d)), s, ray.o), si.p)
+        out.n = dr.select(ok, frame.n, si.n)
+        out.sh_frame = mi.Frame3f(dr.select(ok, frame.s, si.sh_frame.s),
+                                  dr.select(ok, frame.t, si.sh_frame.t),
+                                  dr.select(ok, frame.n, si.sh_frame.n))
+        out.wi = dr.select(ok, frame.to_local(-ray.d), si.wi)
+        out.dp_du = dr.select(ok, frame.s, si.dp_du)
+        out.dp_dv = dr.select(ok, frame.t, si.dp_dv)
+        out.uv = dr.select(ok, mi.Point2f(0.0), si.uv)
+        out.prim_index = dr.select(ok, 0, si.prim_index)
+        if dr.is_jit_v(mi.Float):
+            out.shape = dr.select(ok, mi.ShapePtr(self), si.shape)
+        elif ok:
+            out.shape = self
+        return out, ok
 
     def left_surface(self, ray: mi.Ray3f, mesh_si: mi.SurfaceInteraction3f,
                      exact_si: mi.SurfaceInteraction3f) -> mi.Bool:
