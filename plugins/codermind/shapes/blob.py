@@ -254,6 +254,8 @@ class Blob(mi.Mesh):
     #: the tutorial's blob epsilon (spec 2.3, world units): a crossing this close to a ray's
     #: origin is the surface the ray leaves (tutorialpath's exact_hits)
     SELF_HIT = 0.01
+    #: F - 1 beyond which a ray's origin is inside the surface (``exit_hit``)
+    INSIDE_F = 1e-5
 
     def _along(self, ray: mi.Ray3f, origin: mi.Point3f):
         """Object-space offsets of ``origin`` from the centres, ``ray.d`` in object space
@@ -366,8 +368,12 @@ class Blob(mi.Mesh):
             return si, mi.Bool(False)
         rel, do, normal_to_world = self._along(ray, ray.o)
         g0, slope0, curve0 = self._residual(rel, do, mi.Float(0.0))
-        # inside (beyond float32's rounding of F), or on the surface heading in
-        inward = active & (curve0 < 0) & ((g0 > 4e-7) | ((slope0 > 0) & (g0 > -4e-7)))
+        # inside, or on the surface heading in. An exact point's F - 1 is only known to
+        # its float32 position (~3e-5 units at the tutorial's ~500: ~1e-6 of F), so a
+        # point counts as inside only beyond that; else a grazing ray heading OUT of an
+        # exact point would find a spurious exit a fraction of a unit on
+        inward = active & (curve0 < 0) & ((g0 > self.INSIDE_F) |
+                                          ((slope0 > 0) & (g0 > -self.INSIDE_F)))
         disc = dr.square(slope0) - 2.0 * curve0 * dr.maximum(g0, 0.0)
         s = dr.select(inward, (slope0 + dr.safe_sqrt(disc)) / dr.select(curve0 < 0, -curve0,
                                                                          1.0), 0.0)
