@@ -20,7 +20,11 @@ scores of each sub-sample's Welch t (``welch``), and the pooled difference
 (``difference``, ``metrics.pooled_difference``: what compare pools).
 
     python benchmarks/pooled_pairs.py [SCENE] [--rect x0,y0,x1,y1] [--spp 16] [--seeds 58]
-        [--first-seed 3000] [--blob-max-error E] [--keep DIR]
+        [--first-seed 3000] [--blob-max-error E] [--keep DIR] [--redo-mitsuba]
+
+``--redo-mitsuba`` renders the Mitsuba side of kept seeds again and keeps their port renders:
+after a change to the plugins, the same port renders judge the new Mitsuba side, and the
+two Mitsuba versions pair seed by seed.
 """
 
 from __future__ import annotations
@@ -47,7 +51,19 @@ def render_seeds(args) -> list[dict]:
     for k in range(args.seeds):
         seed = args.first_seed + k
         path = args.keep / f"seed{seed}.npz"
-        if not path.is_file():
+        if path.is_file() and args.redo_mitsuba:
+            t0 = time.perf_counter()
+            kept = dict(np.load(path))
+            e = sides.port_exposure(case.scene, seed, "clean")
+            mits = sides.render_mitsuba(xml, case.grid, case.spp, seed, e, defines,
+                                        progress=False, iid=True)
+            kept.update(ml=mits.linear, mv=mits.variance, mdof=mits.dof)
+            tmp = path.with_suffix(".tmp.npz")
+            np.savez(tmp, **kept)
+            tmp.replace(path)
+            print(f"seed {seed}: Mitsuba again, {time.perf_counter() - t0:.1f} s", file=sys.stderr,
+                  flush=True)
+        elif not path.is_file():
             t0 = time.perf_counter()
             e = sides.port_exposure(case.scene, seed, "clean")
             port = sides.render_port(case.scene, case.grid, case.spp, seed, e, "clean", True,
@@ -144,6 +160,8 @@ def main() -> int:
     ap.add_argument("--blob-max-error", type=float)
     ap.add_argument("--keep", type=Path, default=Path("pooled_pairs"))
     ap.add_argument("--boot", type=int, default=2000)
+    ap.add_argument("--redo-mitsuba", action="store_true",
+                    help="render the Mitsuba side of kept seeds again (keep their port renders)")
     args = ap.parse_args()
     args.rect = tuple(int(x) for x in args.rect.split(","))
     args.keep.mkdir(parents=True, exist_ok=True)
