@@ -318,11 +318,12 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 # inscribed mesh and the surface (a grazing chord): where it comes out, the
                 # mesh has no hit (the ray escapes) or one the surface is not near (Newton
                 # left it unmoved); the exact surface gives the exit
+                unmoved = (which > 0) & (si.t == from_mesh.t)
                 for k, shape in enumerate(exact):
-                    unmoved = (which == k + 1) & (si.t == from_mesh.t)
-                    limit = dr.select(unmoved, dr.inf, si.t)
+                    limit = dr.select(unmoved & (which == k + 1), dr.inf, si.t)
                     si, out = shape.exit_hit(ray, si, limit, active & (origin == k + 1))
                     which = dr.select(out, k + 1, which)
+                    unmoved &= _not(out)
                     behind &= _not(out)
                 on_exact = which > 0
             active &= _not(behind)
@@ -444,8 +445,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
                 ray = dr.select(behind, self._past(ray, from_mesh),
                                 dr.select(on_exact, leave, self._leave(si, wo_world)))
-                # past the mesh the ray keeps its line, so its chord's origin
-                origin = dr.select(behind, origin, which)
+                # past the mesh the ray keeps its line, so its chord's origin; a mesh hit
+                # Newton left unmoved is no point of the surface to start a chord from
+                origin = dr.select(behind, origin, dr.select(unmoved, 0, which))
             else:
                 ray = self._leave(si, wo_world)
 
