@@ -283,6 +283,16 @@ class Blob(mi.Mesh):
             curve += df * (2.0 * inv_r2) * dr.squared_norm(do)
         return value, slope, curve
 
+    def _newton(self, rel: list, do: mi.Vector3f, s: mi.Float
+                ) -> tuple[mi.Float, mi.Float, mi.Float, mi.Float]:
+        """``REFINE_STEPS`` Newton steps on F - 1 along ``rel + s do`` from ``s``, and one
+        more only measured: (s, F - 1, dF/ds, that last step) at the result."""
+        for _ in range(self.REFINE_STEPS + 1):
+            g, slope, _ = self._residual(rel, do, s)
+            step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
+            s = s - step
+        return s + step, g, slope, step
+
     def _frame_at(self, rel: list, do: mi.Vector3f, s: mi.Float, normal_to_world
                   ) -> tuple[mi.Frame3f, mi.Bool]:
         """The ``normals`` option's shading frame at ``rel + s do`` (not ``flat``)."""
@@ -318,12 +328,7 @@ class Blob(mi.Mesh):
         rel, do, normal_to_world = self._along(ray, si.p)
         entering = dr.dot(dr.detach(si.n), dr.detach(ray.d)) < 0
 
-        s = mi.Float(0.0)
-        for _ in range(self.REFINE_STEPS + 1):
-            g, slope, _ = self._residual(rel, do, s)
-            step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
-            s = s - step
-        s = s + step                    # the last step only measured (its slope: the side)
+        s, _, slope, step = self._newton(rel, do, mi.Float(0.0))   # its slope: the side
         cos = dr.abs(dr.dot(dr.detach(si.n), dr.detach(ray.d)))
         bound = 2.0 * self.max_error / dr.maximum(cos, 0.05)
         ok = active & dr.isfinite(s) & (dr.abs(s) <= bound) & \
@@ -377,11 +382,7 @@ class Blob(mi.Mesh):
         disc = dr.square(slope0) - 2.0 * curve0 * dr.maximum(g0, 0.0)
         s = dr.select(inward, (slope0 + dr.safe_sqrt(disc)) / dr.select(curve0 < 0, -curve0,
                                                                          1.0), 0.0)
-        for _ in range(self.REFINE_STEPS + 1):
-            g, slope, _ = self._residual(rel, do, s)
-            step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
-            s = s - step
-        s = s + step
+        s, g, slope, step = self._newton(rel, do, s)
         # grazing chords have slopes of ~1e-4 per unit: float32's rounding of F (~1e-7)
         # then moves t by ~1e-3, so converged means a step within tolerance or F - 1 at
         # that rounding
