@@ -51,30 +51,24 @@ def render_seeds(args) -> list[dict]:
     for k in range(args.seeds):
         seed = args.first_seed + k
         path = args.keep / f"seed{seed}.npz"
-        if path.is_file() and args.redo_mitsuba:
+        kept = dict(np.load(path)) if path.is_file() else None
+        if kept is None or args.redo_mitsuba:
             t0 = time.perf_counter()
-            kept = dict(np.load(path))
+            again = "Mitsuba again, " if kept is not None else ""
             e = sides.port_exposure(case.scene, seed, "clean")
+            if kept is None:
+                port = sides.render_port(case.scene, case.grid, case.spp, seed, e, "clean", True,
+                                         None, False)
+                kept = dict(pl=port.linear, pv=port.variance, pdof=port.dof, labels=labels,
+                            names=np.array(names))
             mits = sides.render_mitsuba(xml, case.grid, case.spp, seed, e, defines,
                                         progress=False, iid=True)
             kept.update(ml=mits.linear, mv=mits.variance, mdof=mits.dof)
             tmp = path.with_suffix(".tmp.npz")
             np.savez(tmp, **kept)
             tmp.replace(path)
-            print(f"seed {seed}: Mitsuba again, {time.perf_counter() - t0:.1f} s", file=sys.stderr,
+            print(f"seed {seed}: {again}{time.perf_counter() - t0:.1f} s", file=sys.stderr,
                   flush=True)
-        elif not path.is_file():
-            t0 = time.perf_counter()
-            e = sides.port_exposure(case.scene, seed, "clean")
-            port = sides.render_port(case.scene, case.grid, case.spp, seed, e, "clean", True,
-                                     None, False)
-            mits = sides.render_mitsuba(xml, case.grid, case.spp, seed, e, defines,
-                                        progress=False, iid=True)
-            tmp = path.with_suffix(".tmp.npz")
-            np.savez(tmp, ml=mits.linear, mv=mits.variance, pl=port.linear, pv=port.variance,
-                     mdof=mits.dof, pdof=port.dof, labels=labels, names=np.array(names))
-            tmp.replace(path)
-            print(f"seed {seed}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
         out.append(dict(np.load(path)))
     return out
 
