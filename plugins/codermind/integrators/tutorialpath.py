@@ -96,6 +96,12 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       is non-zero (none inside the tutorial's glass, none on a pure mirror);
     - the path continues with the BSDF's own ``sample`` (the tutorial material's
       roulette) and its weight; there is no Russian roulette (the tutorial has none);
+    - a :monosp:`blob` with ``tessellate`` = ``false`` has no mesh: every ray and shadow
+      ray is intersected with its zone field directly (``Blob.analytic_hit``, the first
+      crossing beyond the tutorial's blob epsilon 0.01), the hit shaded with the
+      ``normals`` option's frame there, and rays leave it without an offset, as the
+      tutorial's (on page 4 about twice as fast as its mesh with ``exact_hits``, whose
+      hits it matches: docs/results/integrator.md);
     - a ray that escapes adds the environment emitter (the cube map), one that hits an
       area light adds its emission, both with ``path``'s MIS weight (1 after a delta
       event, which is every event of the tutorial material);
@@ -200,7 +206,40 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         """The scene's shapes that can move a hit onto their exact surface."""
         if not self.exact_hits:
             return []
-        return [s for s in scene.shapes() if hasattr(s, "exact_hit")]
+        return [s for s in scene.shapes() if hasattr(s, "exact_hit")
+                and getattr(s, "tessellated", True)]
+
+    @staticmethod
+    def _analytic_shapes(scene: mi.Scene) -> list:
+        """The scene's shapes without a mesh that intersect rays themselves (a
+        :monosp:`blob` with ``tessellate`` = ``false``)."""
+        return [s for s in scene.shapes() if hasattr(s, "analytic_hit")
+                and not getattr(s, "tessellated", True)]
+
+    @staticmethod
+    def _analytic(analytic: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
+                  ) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
+        """``si`` replaced where a shape of ``analytic`` lies in front of it along ``ray``
+        (beyond the tutorial's blob epsilon: rays leave their points without an offset),
+        and the lanes replaced."""
+        hit = mi.Bool(False)
+        for shape in analytic:
+            t = shape.analytic_hit(ray, shape.SELF_HIT, dr.minimum(si.t, ray.maxt), active)
+            on = active & (t < si.t)
+            if dr.is_jit_v(mi.Float):
+                si = dr.select(on, shape.interaction(ray, t, on), si)
+            elif on:
+                si = shape.interaction(ray, t, on)
+            hit |= on
+        return si, hit
+
+    @staticmethod
+    def _occluded(analytic: list, ray: mi.Ray3f, active: mi.Bool) -> mi.Bool:
+        """Lanes whose shadow ray ``ray`` meets a shape of ``analytic`` before its maxt."""
+        blocked = mi.Bool(False)
+        for shape in analytic:
+            blocked |= dr.isfinite(shape.analytic_hit(ray, shape.SELF_HIT, ray.maxt, active))
+        return blocked
 
     @staticmethod
     def _refine(exact: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
@@ -273,6 +312,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         deltas, generic = self._emitters(scene)
         exact = self._exact_shapes(scene)
         has_exact = len(exact) > 0
+        analytic = self._analytic_shapes(scene)
+        has_analytic = len(analytic) > 0
         max_depth = mi.UInt32(0xFFFFFFFF if self.max_depth < 0 else self.max_depth)
         segments = mi.Float(float("inf") if self.max_depth < 0 else self.max_depth - 1)
         ctx = mi.BSDFContext()
@@ -326,6 +367,13 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     unmoved &= _not(out)
                     behind &= _not(out)
                 on_exact = which > 0
+            if dr.hint(has_analytic, mode="scalar"):
+                si, on_analytic = self._analytic(analytic, ray, si, active)
+                on_exact |= on_analytic
+                behind &= _not(on_analytic)
+                if dr.hint(has_exact, mode="scalar"):
+                    which = dr.select(on_analytic, 0, which)
+                    unmoved &= _not(on_analytic)
             active &= _not(behind)
 
             # Emission seen by this ray: the environment on escape, an area light on a hit
@@ -401,11 +449,13 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
                         * lit_scale
                 lit = active_next & (dr.max(dr.abs(value * em_weight)) > 0)
-                exact_lanes = on_exact if has_exact else None
+                exact_lanes = on_exact if has_exact or has_analytic else None
                 shadow = self._shadow(si, ds, False, exact_lanes)
                 if dr.hint(strict, mode="scalar"):
                     shadow = dr.select(squared, self._shadow(si, ds, True, exact_lanes), shadow)
                 blocked = scene.ray_test(shadow, lit)
+                if dr.hint(has_analytic, mode="scalar"):
+                    blocked |= self._occluded(analytic, shadow, lit & _not(blocked))
                 L += dr.select(lit & _not(blocked), beta * value * em_weight, 0.0)
 
             # The BSDF's own continuation (the tutorial material's roulette)
@@ -448,6 +498,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 # past the mesh the ray keeps its line, so its chord's origin; a mesh hit
                 # Newton left unmoved is no point of the surface to start a chord from
                 origin = dr.select(behind, origin, dr.select(unmoved, 0, which))
+            elif dr.hint(has_analytic, mode="scalar"):
+                leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
+                ray = dr.select(on_exact, leave, self._leave(si, wo_world))
             else:
                 ray = self._leave(si, wo_world)
 
