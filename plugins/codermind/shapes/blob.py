@@ -463,14 +463,113 @@ class Blob(mi.Mesh):
         di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
         return dr.select(k == 0.0, 0.0, ds), dr.select(k == 0.0, 0.0, di)
 
-    @dr.syntax
+    @staticmethod
+    def _first_root(qa: mi.Float, qb: mi.Float, qg: mi.Float, lo: mi.Float, span: mi.Float
+                    ) -> mi.Float:
+        """The smallest root s of qa s^2 + qb s + qg in [lo, span] (stable form), or inf."""
+        disc = qb * qb - 4.0 * qa * qg
+        sq = dr.safe_sqrt(disc)
+        q = -0.5 * (qb + dr.select(qb >= 0, sq, -sq))
+        r1 = dr.select(qa != 0, q / dr.select(qa != 0, qa, 1.0), dr.inf)
+        r2 = dr.select(q != 0, qg / dr.select(q != 0, q, 1.0), dr.inf)
+        small, large = dr.minimum(r1, r2), dr.maximum(r1, r2)
+        return dr.select((disc >= 0) & (small >= lo) & (small <= span), small,
+                         dr.select((disc >= 0) & (large >= lo) & (large <= span), large, dr.inf))
+
+    def _quadratic(self, tcs: list, x0s: list, a: mi.Float, t0: mi.Float, t1: mi.Float
+                   ) -> tuple[mi.Float, mi.Float, mi.Float]:
+        """F - 1 = A s^2 + B s + G in s = t - t0 on [t0, t1], no zone sphere crossed inside:
+        each source's line taken at the midpoint."""
+        tm = 0.5 * (t0 + t1)
+        qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
+        for tc, x0 in zip(tcs, x0s):
+            ds, di = self._zone_lines(x0 + a * dr.square(tm - tc))
+            u0 = t0 - tc
+            qa += ds * a
+            qb += ds * (2.0 * a * u0)
+            qg += ds * (x0 + a * u0 * u0) + di
+        return qa, qb, qg
+
+    def _approach(self, ray: mi.Ray3f):
+        """Per source: the t of closest approach and x there; a = |d|^2/R^2 (object space)."""
+        rel, do, _ = self._along(ray, ray.o)
+        a = dr.squared_norm(do) / (self.radius * self.radius)
+        inv_d2 = 1.0 / dr.squared_norm(do)
+        tcs, x0s = [], []
+        for r in rel:
+            tc = -dr.dot(r, do) * inv_d2
+            tcs.append(tc)
+            x0s.append(dr.squared_norm(r + tc * do) / (self.radius * self.radius))
+        return tcs, x0s, a
+
     def analytic_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
-                     active: mi.Bool = True) -> mi.Float:
+                     active: mi.Bool = True, strict: bool = False) -> mi.Float:
         """The ray's first crossing of the zone field's surface F = 1 in (tmin, tmax), or
         inf. Along the ray each source's x_i = |o + t d - c_i|^2/R^2 is a parabola in t, so
         between two consecutive zone-sphere crossings (of any source) F is a quadratic:
         the loop walks those intervals from where the ray enters the region the surface
-        can reach and solves one quadratic per interval (stable roots)."""
+        can reach and solves one quadratic per interval (stable roots).
+        ``strict``: the original's walk (spec 2.10), with its float32 running bound."""
+        if strict:
+            return self._strict_hit(ray, tmin, tmax, active)
+        return self._clean_hit(ray, tmin, tmax, active)
+
+    #: spec 2.10's zone radii r^2/R^2 "as written in the code" (zones 0..8)
+    WRITTEN_RATIO = (10.0, 5.0, 3.33333, 2.5, 2.0, 1.66667, 1.42857, 1.25, 1.1111)
+
+    @dr.syntax
+    def _strict_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
+                    active: mi.Bool = True) -> mi.Float:
+        """The original's intersection (spec 2.10): every zone sphere's entry and exit,
+        walked in t order from the first (also behind the origin) with the bound increments
+        as a float32 running sum; an interval is solved only where that sum is >= 1, so a
+        lone source's core can be skipped where the sum comes out at 0.99999994 (the
+        original's holes). The increments are the float32 differences of the zone bounds
+        0.2, 0.3, ..., 1.0, which sum to exactly 1 in a lone core."""
+        tcs, x0s, a = self._approach(ray)
+        bounds = np.array([0.0] + [0.1 * k for k in range(2, 11)], dtype=np.float32)
+        inc = [float(v) for v in np.diff(bounds)]
+        events = []                      # (t, crossed, signed bound increment), t-sorted below
+        total = mi.Float(0.0)            # quick reject: the entry increments, source by source
+        for tc, x0 in zip(tcs, x0s):
+            for k, level in enumerate(self.WRITTEN_RATIO):
+                crossed = x0 < level
+                total += dr.select(crossed, inc[k], 0.0)
+                h = dr.safe_sqrt((level - x0) / a)
+                events.append((tc - h, crossed, inc[k]))
+                events.append((tc + h, crossed, -inc[k]))
+        hit_t = mi.Float(dr.inf)
+        t0 = mi.Float(-dr.inf)
+        i0 = mi.Int32(-1)
+        bound = mi.Float(0.0)
+        walking = mi.Bool(active) & (total >= 1.0)
+        while walking:
+            # the next event in (t, index) order
+            t1 = mi.Float(dr.inf)
+            i1 = mi.Int32(-1)
+            step = mi.Float(0.0)
+            for e, (te, crossed, de) in enumerate(events):
+                later = crossed & ((te > t0) | ((te == t0) & (e > i0)))
+                better = later & (te < t1)
+                t1 = dr.select(better, te, t1)
+                i1 = dr.select(better, e, i1)
+                step = dr.select(better, de, step)
+            solve = (bound >= 1.0) & (t1 > t0) & (t1 > tmin) & (t0 < tmax) & dr.isfinite(t1)
+            if solve:
+                qa, qb, qg = self._quadratic(tcs, x0s, a, t0, t1)
+                s = self._first_root(qa, qb, qg, dr.maximum(tmin - t0, 0.0), t1 - t0)
+                t = t0 + s
+                hit_t = dr.select(dr.isfinite(s) & (t > tmin) & (t < t1) & (t <= tmax), t,
+                                  hit_t)
+            bound += step
+            t0 = t1
+            i0 = i1
+            walking &= _not(dr.isfinite(hit_t)) & dr.isfinite(t1) & (t0 < tmax)
+        return hit_t
+
+    @dr.syntax
+    def _clean_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
+                   active: mi.Bool = True) -> mi.Float:
         rel, do, _ = self._along(ray, ray.o)
         a = dr.squared_norm(do) / (self.radius * self.radius)
         inv_d2 = 1.0 / dr.squared_norm(do)
