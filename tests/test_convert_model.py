@@ -97,7 +97,7 @@ def test_overrides_are_baked_into_the_xml(tmp_path):
                      "3", "--blob-max-error", "0.5")
     assert result.returncode == 0, result.stderr
     assert defaults(out) == {"max_depth": "5", "quirks": "clean", "min_distance": "0.1", "spp": "3",
-                             "blob0_max_error": "0.5"}
+                             "blob0_max_error": "0.5", "blob_tessellate": "false"}
     assert result.stdout.count("given by the user") == 3
     assert ("codermind convert page4.txt -o p4.xml with the options max-depth=5 spp=3 "
             "blob-max-error=0.5") in out.read_text()

@@ -90,6 +90,8 @@ def test_clean_has_the_expectation_of_path(llvm, tmp_path, source):
     defines.pop("quirks", None)
     defines.pop("min_distance", None)      # the swapped integrators use Mitsuba's offsets
     defines = {k: v for k, v in defines.items() if f"${k}" in text}
+    if "blob_tessellate" in defines:
+        defines["blob_tessellate"] = "true"   # path sees only the blob's mesh
     if not random:
         # nothing random: one sample is the value; path summed over one-light scenes
         defines["spp"] = 1
@@ -121,9 +123,9 @@ def test_strict_is_told_apart_from_path(llvm, tmp_path):
     strict = TUTORIALPATH.replace('value="clean"', 'value="strict"')
     text = small_film(text, 96, 72)
     mine = load(mi, swap_integrator(text, moment(strict)), folder, max_depth=11, spp=64,
-                blob0_max_error=0.5)
+                blob0_max_error=0.5, blob_tessellate="true")
     ref = load(mi, swap_integrator(text, moment(PATH)), folder, max_depth=11, spp=64,
-               blob0_max_error=0.5)
+               blob0_max_error=0.5, blob_tessellate="true")
     assert not zstat.two_sample(zstat.render_moments(mi, mine, 64, seed=1),
                                 zstat.render_moments(mi, ref, 64, seed=2)).passed
 
@@ -241,6 +243,18 @@ def test_convert_writes_the_chosen_integrator(tmp_path, options, expect):
     assert text.count("<integrator") == 1
 
 
+@pytest.mark.parametrize("options,tessellate", [((), "false"),
+                                                (("--integrator", "path"), "true")])
+def test_convert_tessellates_the_blob_only_for_path(tmp_path, options, tessellate):
+    """tutorialpath intersects the zone field itself; path needs the blob's mesh."""
+    out = tmp_path / "page4.xml"
+    r = run_cli("convert", SCENES / "page4.txt", "-o", out, "-q", *options)
+    assert r.returncode == 0, r.stderr
+    text = out.read_text()
+    assert f'<default name="blob_tessellate" value="{tessellate}"/>' in text
+    assert '<boolean name="tessellate" value="$blob_tessellate"/>' in text
+
+
 def test_convert_refuses_strict_path(tmp_path):
     r = run_cli("convert", SCENES / "page2.txt", "-o", tmp_path / "x.xml", "--integrator",
                 "path", "--quirks", "strict")
@@ -292,7 +306,7 @@ def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
     import drjit as dr
     from closed_form import fresnel
     scene = load(mi, _glass_only((SCENES / "page4.xml").read_text()), SCENES,
-                 max_depth=max_depth, blob0_max_error=0.0865)
+                 max_depth=max_depth, blob0_max_error=0.0865, blob_tessellate="true")
     # pinhole rays from the eye (320, 240, 0) through the blob's edge (page 4's crop
     # 300..332 x 250..274, spec 2.2), 4 per film position (independent roulette draws each)
     fx, fy = np.meshgrid(np.arange(600, 664) / 2.0, np.arange(500, 548) / 2.0)

@@ -248,7 +248,10 @@ def _notes(scene, model: Model, integrator: str = "tutorialpath",
                              "the missing centre(s) at the origin, and so does this scene.")
         if scene.blobs:
             notes.append("Blobs are triangle meshes within max_error of the zone-field surface "
-                         "(exact gradient normals at the vertices, interpolated between).")
+                         "(exact gradient normals at the vertices, interpolated between)"
+                         + (" where blob_tessellate is true; by default tutorialpath "
+                            "intersects the zone field itself." if integrator == "tutorialpath"
+                            else "."))
         stochastic = model.stochastic
         notes.append("The auto exposure traces the 16x16 probe grid through Mitsuba with its "
                      "own random numbers" + (" (the tutorial's sd over random sequences is "
@@ -540,6 +543,12 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
     for i, e in enumerate(model.blob_max_error):
         w.leaf("default", f"Blob{i}: world units", name=f"blob{i}_max_error",
                value=f"{e:.6g}")
+    if model.blob_max_error:
+        w.leaf("default", "false: tutorialpath intersects the zone field itself (exact, "
+               "faster); true: triangle meshes within max_error, what every integrator sees"
+               if integrator == "tutorialpath" else "true: triangle meshes (path sees no "
+               "untessellated blob)", name="blob_tessellate",
+               value="false" if integrator == "tutorialpath" else "true")
     w.blank()
 
     _integrator(w, integrator, page, bool(model.blob_max_error))
@@ -608,6 +617,8 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
         w.string("field", "tutorial", "the piecewise-linear zone field (spec 2.10)")
         w.leaf("float", "largest mesh-to-surface distance, world units", name="max_error",
                value=f"$blob{b.index}_max_error")
+        w.leaf("boolean", "false: no mesh, only tutorialpath sees it", name="tessellate",
+               value="$blob_tessellate")
         w.string("normals", "exact", "gradient of sum R^2/d^2, as the tutorial shades")
         w.leaf("ref", f"Material.Id, line {src.line(sec, 'Material.Id')}",
                id=f"material{b.material_id}")
