@@ -6,7 +6,8 @@ Methods (each a series of points, one point per setting):
 * ``mitsuba spp``: the converted XML (llvm_ad_rgb, the chooser's depth and blob, lights
   summed as the tutorial does) over a sweep of samples per sub-sample;
 * ``mitsuba max_error``: the same at the chooser's spp over a sweep of the blob's
-  ``max_error`` (page 4);
+  ``max_error`` (page 4), on the blob's mesh (``blob_tessellate`` true: the default
+  analytic blob has no mesh);
 * ``port clean``: ``codermind_ref.render`` in clean mode over a sweep of Complexity (2
   workers; pages 1-2 have no Complexity: one point);
 * ``chooser pick`` / ``maximal model``: the XML as ``codermind convert`` made it (the model
@@ -192,8 +193,10 @@ def chart_scene(name: str, cfg: Config) -> dict:
     jobs = [Job("mitsuba spp", "spp", s, s, mitsuba(base, s))
             for s in (cfg.det_spp if det else cfg.spp)]
     if "blob0_max_error" in chosen:
+        # the mesh's error and cost against max_error (the default analytic blob has no mesh)
+        mesh = {"blob_tessellate": "true"} if "$blob_tessellate" in Path(xml).read_text() else {}
         jobs += [Job("mitsuba max_error", "max_error", e, int(chosen["spp"]),
-                     mitsuba({"blob0_max_error": e}, int(chosen["spp"])))
+                     mitsuba({"blob0_max_error": e, **mesh}, int(chosen["spp"])))
                  for e in cfg.max_error]
     cs = cfg.complexity if (scene.page == 4 and not det) else (
         (1, 4)[:len(cfg.det_spp)] if scene.page == 4 else (1,))
