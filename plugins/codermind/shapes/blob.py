@@ -570,17 +570,10 @@ class Blob(mi.Mesh):
     @dr.syntax
     def _clean_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
                    active: mi.Bool = True) -> mi.Float:
-        rel, do, _ = self._along(ray, ray.o)
-        a = dr.squared_norm(do) / (self.radius * self.radius)
-        inv_d2 = 1.0 / dr.squared_norm(do)
+        tcs, x0s, a = self._approach(ray)
         bound = self._bound_level()
-        tcs, x0s = [], []
         t_enter, t_exit = mi.Float(dr.inf), mi.Float(-dr.inf)
-        for r in rel:
-            tc = -dr.dot(r, do) * inv_d2                # closest approach to the source
-            x0 = dr.squared_norm(r + tc * do) / (self.radius * self.radius)
-            tcs.append(tc)
-            x0s.append(x0)
+        for tc, x0 in zip(tcs, x0s):
             h = dr.safe_sqrt((bound - x0) / a)
             near = x0 < bound
             t_enter = dr.select(near, dr.minimum(t_enter, tc - h), t_enter)
@@ -606,24 +599,8 @@ class Blob(mi.Mesh):
                 t_asc = dr.select(ja >= 1.0, t_up(ja), dr.inf)
                 tn = dr.select(u < 0, t_desc, t_asc)
                 t1 = dr.minimum(t1, dr.select(tn > t0, tn, t1))
-            # F - 1 = A s^2 + B s + G in s = t - t0, with each source's line at the midpoint
-            tm = 0.5 * (t0 + t1)
-            qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
-            for tc, x0 in zip(tcs, x0s):
-                ds, di = self._zone_lines(x0 + a * dr.square(tm - tc))
-                u0 = t0 - tc
-                qa += ds * a
-                qb += ds * (2.0 * a * u0)
-                qg += ds * (x0 + a * u0 * u0) + di
-            disc = qb * qb - 4.0 * qa * qg
-            sq = dr.safe_sqrt(disc)
-            q = -0.5 * (qb + dr.select(qb >= 0, sq, -sq))
-            r1 = dr.select(qa != 0, q / dr.select(qa != 0, qa, 1.0), dr.inf)
-            r2 = dr.select(q != 0, qg / dr.select(q != 0, q, 1.0), dr.inf)
-            lo, up = dr.minimum(r1, r2), dr.maximum(r1, r2)
-            span = t1 - t0
-            s = dr.select((disc >= 0) & (lo >= 0) & (lo <= span), lo,
-                          dr.select((disc >= 0) & (up >= 0) & (up <= span), up, dr.inf))
+            qa, qb, qg = self._quadratic(tcs, x0s, a, t0, t1)
+            s = self._first_root(qa, qb, qg, 0.0, t1 - t0)
             found = dr.isfinite(s)
             hit_t = dr.select(found, t0 + s, hit_t)
             t0 = t1
