@@ -4,14 +4,10 @@ import drjit as dr
 import mitsuba as mi
 
 from ..exposed import exposed, kernel_value, take_float
+from ..masks import logical_not as _not
 from ..params import FLOAT32_MIN_NORMAL, read_float, read_texture
 
 PAGES = (1, 2, 4)
-
-
-def _not(mask: mi.Bool) -> mi.Bool:
-    """Logical not that also works on the Python bools of scalar variants (~True == -2)."""
-    return mask ^ True
 
 
 class TutorialBSDF(mi.BSDF):

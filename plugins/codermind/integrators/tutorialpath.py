@@ -3,6 +3,8 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..masks import logical_not as _not
+
 QUIRKS = ("clean", "strict")
 #: Mitsuba's shadow-ray epsilon (``spawn_ray_to`` shortens a shadow ray by it).
 SHADOW_EPSILON = mi.math.ShadowEpsilon
@@ -12,11 +14,6 @@ def _mis_weight(pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
     """Power heuristic, as Mitsuba's ``path``."""
     a2 = dr.square(pdf_a)
     return dr.detach(dr.select(pdf_a > 0, a2 / dr.fma(pdf_b, pdf_b, a2), 0.0))
-
-
-def _not(mask: mi.Bool) -> mi.Bool:
-    """Logical not that also works on the Python bools of scalar variants (~True == -2)."""
-    return mask ^ True
 
 
 def _eval_sample(bsdf: mi.BSDF, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f,
@@ -501,17 +498,18 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 prev_si = mi.Interaction3f(si)
                 prev_pdf = bs.pdf
                 prev_delta = mi.has_flag(bs.sampled_type, mi.BSDFFlags.Delta)
+            if dr.hint(has_exact or has_analytic, mode="scalar"):
+                # exact points are left without an offset
+                leave = dr.select(on_exact, mi.Ray3f(si.p, wo_world, si.time, si.wavelengths),
+                                  self._leave(si, wo_world))
             if dr.hint(has_exact, mode="scalar"):
-                # past the mesh along the ray itself (the line is kept), or from the exact point
-                leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
-                ray = dr.select(behind, self._past(ray, from_mesh),
-                                dr.select(on_exact, leave, self._leave(si, wo_world)))
+                # past the mesh along the ray itself (the line is kept), or from the hit
+                ray = dr.select(behind, self._past(ray, from_mesh), leave)
                 # past the mesh the ray keeps its line, so its chord's origin; a mesh hit
                 # Newton left unmoved is no point of the surface to start a chord from
                 origin = dr.select(behind, origin, dr.select(unmoved, 0, which))
             elif dr.hint(has_analytic, mode="scalar"):
-                leave = mi.Ray3f(si.p, wo_world, si.time, si.wavelengths)
-                ray = dr.select(on_exact, leave, self._leave(si, wo_world))
+                ray = leave
             else:
                 ray = self._leave(si, wo_world)
 

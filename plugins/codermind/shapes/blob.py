@@ -9,6 +9,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..exposed import exposed, scalar
+from ..masks import logical_not as _not
 from ..blobmesh import BlobMeshError, build_blob_mesh
 from ..blobmesh.field import INTERCEPT, SLOPE
 
@@ -19,6 +20,11 @@ assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 *
            < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
 
 _CENTER = re.compile(r"center(\d+)$")
+
+# the strict walk's bound increments of zones 0..8: the float32 differences of the zone bounds
+# 0.2, 0.3, ..., 1.0 (spec 2.10: they sum to exactly 1 in a lone core)
+_BOUND_INC32 = [float(v) for v in np.diff(np.array([0.0] + [0.1 * k for k in range(2, 11)],
+                                                   dtype=np.float32))]
 
 
 def blob(props: mi.Properties) -> mi.Mesh:
@@ -456,8 +462,12 @@ class Blob(mi.Mesh):
         j = max(1, math.ceil(10.0 / len(self.centers)) - 1)
         return 10.0 / j
 
-    def _zone_lines(self, x: mi.Float) -> tuple[mi.Float, mi.Float]:
-        """The zone field's line f = di + ds x at ``x`` (0, 0 beyond x = 10)."""
+    @staticmethod
+    def _zone_lines(x: mi.Float) -> tuple[mi.Float, mi.Float]:
+        """The zone field's line f = di + ds x at ``x``: (ds, di), (0, 0) beyond x = 10.
+        The depth k = #{j in 1..9: x <= 10/j} = min(9, floor(10/x)) picks the cumulative
+        tables' line (blobmesh.field); from k = 2 on they are the chords of 1/x (checked at
+        import), so a few operations instead of one select per zone."""
         k = dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0)
         ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
         di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
@@ -524,12 +534,10 @@ class Blob(mi.Mesh):
         walked in t order from the first (also behind the origin) with the bound increments
         as a float32 running sum; an interval is solved only where that sum is >= 1, so a
         lone source's core can be skipped where the sum comes out at 0.99999994 (the
-        original's holes). The increments are the float32 differences of the zone bounds
-        0.2, 0.3, ..., 1.0, which sum to exactly 1 in a lone core."""
+        original's holes). The increments are ``_BOUND_INC32``."""
         tcs, x0s, a = self._approach(ray)
-        bounds = np.array([0.0] + [0.1 * k for k in range(2, 11)], dtype=np.float32)
-        inc = [float(v) for v in np.diff(bounds)]
-        events = []                      # (t, crossed, signed bound increment), t-sorted below
+        inc = _BOUND_INC32
+        events = []                      # (t, crossed, signed bound increment), walked in t order
         total = mi.Float(0.0)            # quick reject: the entry increments, source by source
         for tc, x0 in zip(tcs, x0s):
             for k, level in enumerate(self.WRITTEN_RATIO):
@@ -635,14 +643,7 @@ class Blob(mi.Mesh):
         if self.field == "exact":
             inv = 1.0 / dr.maximum(x, 1e-30)
             return inv, -dr.square(inv)
-        # the zone field: depth k = #{j in 1..9: x <= 10/j} = min(9, floor(10/x)) picks the
-        # cumulative tables' line (blobmesh.field); from k = 2 on they are the chords of 1/x
-        # (checked at import), so a few operations instead of one select per zone
-        k = dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0)
-        ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
-        di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
-        ds = dr.select(k == 0.0, 0.0, ds)
-        di = dr.select(k == 0.0, 0.0, di)
+        ds, di = self._zone_lines(x)
         return di + ds * x, ds
 
     def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
@@ -727,11 +728,6 @@ def _center_array(props: mi.Properties) -> np.ndarray:
     if flat.size == 0 or flat.size % 3:
         raise ValueError(f"blob: 'centers' must hold 3 numbers per centre, got {flat.size}")
     return flat.reshape(-1, 3)
-
-
-def _not(mask):
-    """Logical not that also works on the Python bools of scalar variants."""
-    return mask ^ True
 
 
 mi.register_shape("blob", blob)
