@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -83,6 +84,58 @@ def test_pass_split_is_exact_and_seeds_are_distinct():
     assert sum(pass_plan(1000, 640 * 480)) == 1000
     seeds = {pass_seed(s, i) for s in range(20) for i in range(50)}
     assert len(seeds) == 1000
+
+
+def _is_prime(p: int) -> bool:
+    return p > 1 and all(p % d for d in range(2, int(p ** 0.5) + 1))
+
+
+# The counts Mitsuba's samplers take as they are (their plugin docs): any, squares, squares
+# (multijitter's a x b includes them; not every count), powers of 4, squares of primes.
+KEEPS = {
+    "independent": lambda n: True,
+    "stratified": lambda n: round(n ** 0.5) ** 2 == n,
+    "ldsampler": lambda n: n >= 1 and 4 ** round(math.log(n, 4)) == n,
+    "orthogonal": lambda n: round(n ** 0.5) ** 2 == n and _is_prime(round(n ** 0.5)),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(KEEPS))
+def test_sampler_plan_passes_are_counts_the_sampler_keeps(llvm, kind):
+    """Every pass of the plan is a count that the sampler does not round up (so a pass renders
+    what it counts), and the passes add up to the request."""
+    mi = llvm
+    from codermind.render import sampler_plan
+    sampler = mi.load_dict({"type": kind, "sample_count": 4})
+    for spp in (16, 49, 64, 100, 256, 1024):
+        if kind == "ldsampler" and spp == 49:       # refused (next test)
+            continue
+        plan = sampler_plan(sampler, spp, 1280 * 960)
+        assert sum(plan) == spp
+        assert all(KEEPS[kind](n) for n in plan), (kind, spp, plan)
+    assert sampler.sample_count() == 4
+
+
+def test_sampler_plan_keeps_a_stratified_set_whole(llvm):
+    """On page 4's film (1280 x 960 sub-samples) 64 spp is one multijitter pass (a stratified
+    set of 64), where the lane budget alone would split it 27 + 27 + 10; independent samples
+    keep that split."""
+    mi = llvm
+    from codermind.render import pass_plan, sampler_plan
+    pixels = 1280 * 960
+    mj = mi.load_dict({"type": "multijitter", "sample_count": 4})
+    iid = mi.load_dict({"type": "independent", "sample_count": 4})
+    assert sampler_plan(mj, 64, pixels) == [64]
+    assert sampler_plan(mj, 1024, pixels) == [64] * 16
+    assert sampler_plan(iid, 64, pixels) == pass_plan(64, pixels) == [27, 27, 10]
+
+
+def test_sampler_plan_refuses_a_count_without_kept_passes(llvm):
+    mi = llvm
+    from codermind.errors import CodermindError
+    from codermind.render import sampler_plan
+    with pytest.raises(CodermindError, match="LowDiscrepancySampler: it rounds 49 .* up to 64"):
+        sampler_plan(mi.load_dict({"type": "ldsampler", "sample_count": 4}), 49, 100)
 
 
 def test_passes_accumulate_to_the_same_mean_as_one_render(tmp_path, llvm):

@@ -39,7 +39,6 @@ Mitsuba's ``moment`` integrator.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from dataclasses import dataclass
@@ -51,7 +50,7 @@ import numpy as np
 
 from ..errors import CodermindError
 from ..imageio import atomic_path, write_exr, write_png_bytes
-from ..render import LANE_BUDGET, Progress, accumulate, pass_plan, pass_seed, scene_spp
+from ..render import LANE_BUDGET, Progress, accumulate, pass_seed, sampler_plan, scene_spp
 from ..scene import load_scene
 from .image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
                              luminance, parse_block, probe_film_positions, tga_bytes,
@@ -199,20 +198,6 @@ def check_light_sampling(scene: mi.Scene, spp: int) -> None:
                              "--lights sample")
 
 
-def square_pass(spp: int, pass_spp: int) -> int:
-    """Mitsuba's stratified sampler rounds a pass's sample count up to a square: with a
-    square ``spp``, the largest square dividing it and <= ``pass_spp`` (1 at least), so that
-    every pass is exactly what it counts."""
-    root = math.isqrt(spp)
-    if root * root != spp:
-        return pass_spp
-    best = 1
-    for k in range(1, root + 1):
-        if spp % (k * k) == 0 and k * k <= max(pass_spp, 1):
-            best = k * k
-    return best
-
-
 def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
                   pass_spp: int | None = None, variance: bool = False,
                   progress: Progress | None = None,
@@ -224,15 +209,11 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     sensor = scenes[0].sensors()[0]     # the same object in every light scene
     film = sensor.film()
     pixels = int(film.crop_size()[0]) * int(film.crop_size()[1])
-    pass_spp = pass_spp or max(1, LANE_BUDGET // pixels)
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
-        pass_spp = min(pass_spp, -(-spp // k))
-    # samplers that round a pass's count up to a square (multijitter: to a x b, exact for
-    # squares): passes of square counts, so that every pass is what it counts
-    if str(sensor.sampler()).startswith(("StratifiedSampler", "MultijitterSampler")):
-        pass_spp = square_pass(spp, pass_spp)
-    plan = pass_plan(spp, pixels, pass_spp)
+        pass_spp = min(pass_spp or max(1, LANE_BUDGET // pixels), -(-spp // k))
+    # passes of counts the sampler keeps (codermind.render.sampler_plan)
+    plan = sampler_plan(sensor.sampler(), spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
     sampler = sensor.sampler()
     count = sampler.sample_count()
