@@ -11,9 +11,13 @@ C = 256. Each sampler's clean error (against the converged CLEAN reference, anot
 over ``--spp`` then gives the CPU time to reach that error (log-log interpolation as
 ``chart.time_to_reach``; beyond the sweep error ~ 1 / time from the nearest point), and the
 ratio to the original's time for the crop (145.7 s x crop share of the image: the original's
-cost per pixel is taken as uniform). CPU seconds of this process (all Dr.Jit threads) are
-used because the machine is shared; they are printed with the load. The sampler with the
-smallest time is the winner (``codermind convert`` writes it: codermind.tutorial.xml.RANDOM_SAMPLER).
+cost per pixel is taken as uniform). Both wall seconds (as ``codermind chart`` times a render,
+and as issue 14 compares two cores against the original's one) and CPU seconds of this
+process (all Dr.Jit threads, against the original's one core; less sensitive to a shared
+machine) are printed, with the load. The sampler with the smallest wall time is the
+winner (``codermind convert`` writes it: codermind.tutorial.xml.RANDOM_SAMPLER).
+Counts are the samplers' own (codermind.render.sampler_plan: passes of counts each
+sampler keeps, so a pass renders what it counts).
 
 ``--pairs`` measures the same without converged references (so that the whole image fits in
 a run): an estimator's error against its own converged mean is its variance, estimated for
@@ -32,6 +36,8 @@ import os
 import resource
 import sys
 import tempfile
+import time
+from typing import NamedTuple
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +46,11 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT.parent / "shared" / "tutorial" / "page4" / "derived_scene_complexity256.txt"
 ORIGINAL_SECONDS = 145.7            # Complexity 256, 640x480, one core (issue 14)
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
+
+
+class Cost(NamedTuple):
+    cpu: float      #: CPU seconds of this process (all Dr.Jit threads)
+    wall: float     #: wall seconds
 
 
 def cpu() -> float:
@@ -67,6 +78,9 @@ def main() -> int:
     p.add_argument("--spp", default="4,16,64,256")  # squares, powers of 2
     p.add_argument("--port-c", default="2,4,8,16")
     p.add_argument("--samplers", default=",".join(SAMPLERS))
+    p.add_argument("--pass-spp", type=int, default=None,
+                   help="passes of at most this many spp (default: codermind's plan; a "
+                        "stratifying sampler's pass is one stratified set)")
     p.add_argument("--pairs", action="store_true",
                    help="variance from seed pairs instead of converged references")
     args = p.parse_args()
@@ -101,12 +115,12 @@ def main() -> int:
         # (stratified and the others bake it in) compiles here, not in the timed render
         # (the references are not timed: no warm-up)
         if warm:
-            render_linear(scene, spp, 777)
+            render_linear(scene, spp, 777, pass_spp=args.pass_spp)
         dr.sync_thread()
-        c0 = cpu()
-        mean, _, _, _ = render_linear(scene, spp, seed)
+        c0, w0 = cpu(), time.perf_counter()
+        mean, _, _, _ = render_linear(scene, spp, seed, pass_spp=args.pass_spp)
         dr.sync_thread()
-        return grid.take(mean.astype(np.float64)), cpu() - c0
+        return grid.take(mean.astype(np.float64)), Cost(cpu() - c0, time.perf_counter() - w0)
 
     if args.pairs:
         return pairs(args, scene_txt, grid, exposure, scene_with, render)
@@ -114,7 +128,7 @@ def main() -> int:
     for quirks in ("clean", "strict"):
         refs[quirks], c = render(scene_with("independent", quirks), args.ref_spp, 4242,
                                     warm=False)
-        print(f"reference {quirks}: {args.ref_spp} spp, {c:.1f} CPU s")
+        print(f"reference {quirks}: {args.ref_spp} spp, {c.cpu:.1f} CPU s")
 
     port_c = [int(v) for v in args.port_c.split(",")]
     port_err = []
@@ -136,23 +150,43 @@ def main() -> int:
     return sweep(args, scene_with, error, target, original)
 
 
+def counts(sampler: str, spp: int) -> int:
+    """``spp``, or for a sampler that keeps only some counts the nearest one it keeps
+    (orthogonal: a prime's square; ldsampler: a power of 4), in log scale."""
+    if sampler == "orthogonal":
+        keep = [p * p for p in range(2, 64) if all(p % d for d in range(2, p))]
+    elif sampler == "ldsampler":
+        keep = [4 ** k for k in range(1, 8)]
+    else:
+        return spp
+    return min(keep, key=lambda n: abs(np.log(n / spp)))
+
+
 def sweep(args, scene_with, error, target: float, original: float) -> int:
-    """Each sampler's (error, CPU s) = ``error(scene, spp)`` over ``--spp``, the CPU time at
-    which it reaches ``target``, and the winner."""
+    """Each sampler's (error, cost) = ``error(scene, n)`` over ``--spp`` (each count as
+    :func:`counts` makes it), the time at which it reaches ``target`` in wall seconds (as
+    ``codermind chart`` times it, the issue's measure: two cores against the original's one)
+    and in CPU seconds (against its one core), and the winner by wall time."""
     spps = [int(v) for v in args.spp.split(",")]
     best = None
-    print(f"{'sampler':12s} " + " ".join(f"{'spp ' + str(s):>18s}" for s in spps)
-          + f" {'CPU s to target':>16s} {'vs original':>12s}")
+    print(f"{'sampler':12s} " + " ".join(f"{'spp ~' + str(s):>27s}" for s in spps)
+          + f" {'wall s to target':>17s} {'vs original':>11s} {'CPU s to target':>16s}"
+          f" {'vs original':>11s}")
     for sampler in args.samplers.split(","):
         scene = scene_with(sampler)
-        errs, times = zip(*(error(scene, s) for s in spps))
-        t = reach(times, errs, target)
-        cells = " ".join(f"{e:9.3g} {c:7.2f}s" for e, c in zip(errs, times))
-        print(f"{sampler:12s} {cells} {t:16.3f} {original / t:11.1f}x", flush=True)
-        if best is None or t < best[1]:
-            best = (sampler, t)
-    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error, CPU "
-          f"seconds against its one core); load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+        ns = [counts(sampler, s) for s in spps]
+        errs, costs = zip(*(error(scene, n) for n in ns))
+        wall = reach([c.wall for c in costs], errs, target)
+        cpu_s = reach([c.cpu for c in costs], errs, target)
+        cells = " ".join(f"{n:4d}: {e:8.3g} {c.wall:5.2f}/{c.cpu:5.2f}s"
+                         for n, e, c in zip(ns, errs, costs))
+        print(f"{sampler:12s} {cells} {wall:17.3f} {original / wall:10.1f}x {cpu_s:16.3f} "
+              f"{original / cpu_s:10.1f}x", flush=True)
+        if best is None or wall < best[1]:
+            best = (sampler, wall, cpu_s)
+    print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error in wall "
+          f"seconds, {original / best[2]:.1f}x in CPU seconds against its one core); "
+          f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
     return 0
 
 
@@ -162,7 +196,7 @@ def pairs(args, scene_txt, grid, exposure, scene_with, render) -> int:
     spps = [int(v) for v in args.spp.split(",")]
     norm, c = render(scene_with("independent"), max(spps), 4242, warm=False)
     denominator = np.square(norm) + REL_MSE_EPS
-    print(f"normaliser: clean, {max(spps)} spp, {c:.1f} CPU s")
+    print(f"normaliser: clean, {max(spps)} spp, {c.cpu:.1f} CPU s")
     port_c = [int(v) for v in args.port_c.split(",")]
     port_err = []
     for c in port_c:
@@ -179,7 +213,8 @@ def pairs(args, scene_txt, grid, exposure, scene_with, render) -> int:
 
     def error(scene, spp: int):
         (x1, c1), (x2, c2) = render(scene, spp, 7), render(scene, spp, 8, warm=False)
-        return float(np.mean(np.square(x1 - x2) / 2 / denominator)), (c1 + c2) / 2
+        return (float(np.mean(np.square(x1 - x2) / 2 / denominator)),
+                Cost((c1.cpu + c2.cpu) / 2, (c1.wall + c2.wall) / 2))
 
     return sweep(args, scene_with, error, target, original)
 
