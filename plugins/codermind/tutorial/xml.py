@@ -404,9 +404,10 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
 #: (README "The tutorialpath integrator"); used where the sample count suits it (Mitsuba
 #: rounds other counts up), else ``independent``. Stratifying the Complexity rays of a
 #: sub-sample is legitimate: the tone curve acts on their mean.
-#: Page 4 crop (benchmarks/bench_samplers.py, Complexity 256 scene), CPU seconds to the strict
-#: port's error at Complexity 256: independent 1.71, stratified 0.24, multijitter 0.17,
-#: ldsampler 0.18, orthogonal 0.21.
+#: Page 4's whole image (benchmarks/bench_samplers.py --pairs --rect 0,0,640,480 --spp 16,64,
+#: Complexity 256 scene, 2026-12-04), wall seconds to the strict port's error at Complexity
+#: 256: independent 19.5, stratified 6.26, multijitter 5.76, ldsampler 6.22, orthogonal 6.14
+#: (docs/results/integrator.md).
 RANDOM_SAMPLER = "multijitter"
 
 
