@@ -81,12 +81,18 @@ def main() -> int:
     p.add_argument("--pass-spp", type=int, default=None,
                    help="passes of at most this many spp (default: codermind's plan; a "
                         "stratifying sampler's pass is one stratified set)")
+    p.add_argument("--vector-width", type=int, choices=(0, 8), default=0,
+                   help="Dr.Jit's LLVM vector width: 0 the host's, 8 without AVX-512 "
+                        "(bench_pass_plan.llvm_width)")
     p.add_argument("--pairs", action="store_true",
                    help="variance from seed pairs instead of converged references")
     args = p.parse_args()
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_pass_plan import llvm_width
+    width = llvm_width(dr, args.vector_width)
     import codermind  # noqa: F401
     from codermind.tutorial.render import render_linear
     from codermind_harness import sides
@@ -100,7 +106,8 @@ def main() -> int:
     xml = sides.convert_xml(args.scene, scene_txt, folder, name="page4.xml")
     text = xml.read_text()
     exposure = sides.port_exposure(scene_txt, 0, "strict")
-    print(f"{args.scene.name}, tutorial rect {rect} ({grid.pixels} pixels), "
+    print(f"{args.scene.name}, tutorial rect {rect} ({grid.pixels} pixels), LLVM vector width "
+          f"{width}, "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
 
     def scene_with(sampler: str, quirks: str = "clean"):
