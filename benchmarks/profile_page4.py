@@ -64,6 +64,7 @@ def patched(name: str, edits, folder: Path) -> str:
             raise SystemExit(f"tutorialpath.py changed: cannot find {old!r}")
         src = src.replace(old, new)
     src = src.replace('mi.register_integrator("tutorialpath"', f'mi.register_integrator("{name}"')
+    src = src.replace("from ..", "from codermind.")   # the copy is a top-level module
     (folder / f"{name}.py").write_text(src)
     importlib.import_module(name)
     return name
