@@ -588,24 +588,30 @@ class Blob(mi.Mesh):
             t_exit = dr.select(near, dr.maximum(t_exit, tc + h), t_exit)
         t0 = dr.maximum(t_enter, tmin)
         hi = dr.minimum(t_exit, tmax)
+        # per source, where the ray leaves the deepest zone it reaches (fixed along the ray)
+        t_deep = []
+        for tc, x0 in zip(tcs, x0s):
+            deepest = dr.minimum(dr.floor(10.0 / dr.maximum(x0, 1e-30)), 9.0)
+            t_deep.append(dr.select(deepest >= 1.0, tc + dr.safe_sqrt(
+                (10.0 / dr.maximum(deepest, 1.0) - x0) / a), dr.inf))
         hit_t = mi.Float(dr.inf)
         walking = mi.Bool(active) & (t0 < hi)
         while walking:
-            # the next zone-sphere crossing after t0 (probed just beyond it), over all sources
+            # the next zone-sphere crossing after t0 (probed just beyond it), over all sources:
+            # before the closest approach the next level inwards (or, past the deepest, that
+            # zone's exit), after it the current level outwards; one level, one root each
             t1 = mi.Float(hi)
             probe = t0 + 1e-3
-            for tc, x0 in zip(tcs, x0s):
+            for tc, x0, t_out in zip(tcs, x0s, t_deep):
                 u = probe - tc
                 kk = dr.floor(10.0 / dr.maximum(x0 + a * u * u, 1e-30))
-                deepest = dr.minimum(dr.floor(10.0 / dr.maximum(x0, 1e-30)), 9.0)
-                down = 10.0 / (kk + 1.0)                 # the next level inwards ...
-                reach = (kk + 1.0 <= 9.0) & (down > x0)
-                t_up = lambda k: tc + dr.safe_sqrt((10.0 / dr.maximum(k, 1.0) - x0) / a)  # noqa
-                t_desc = dr.select(reach, tc - dr.safe_sqrt((down - x0) / a),
-                                   dr.select(deepest >= 1.0, t_up(deepest), dr.inf))
-                ja = dr.minimum(kk, 9.0)                 # ... or outwards, past closest approach
-                t_asc = dr.select(ja >= 1.0, t_up(ja), dr.inf)
-                tn = dr.select(u < 0, t_desc, t_asc)
+                inward = u < 0
+                k = dr.select(inward, kk + 1.0, dr.minimum(kk, 9.0))
+                level = 10.0 / dr.maximum(k, 1.0)
+                h = dr.safe_sqrt((level - x0) / a)
+                reach = (kk + 1.0 <= 9.0) & (level > x0)
+                tn = dr.select(inward, dr.select(reach, tc - h, t_out),
+                               dr.select(k >= 1.0, tc + h, dr.inf))
                 t1 = dr.minimum(t1, dr.select(tn > t0, tn, t1))
             qa, qb, qg = self._quadratic(tcs, x0s, a, t0, t1)
             s = self._first_root(qa, qb, qg, 0.0, t1 - t0)
