@@ -158,14 +158,13 @@ def main() -> int:
 
 
 def counts(sampler: str, spp: int) -> int:
-    """``spp``, or for a sampler that keeps only some counts the nearest one it keeps
-    (orthogonal: a prime's square; ldsampler: a power of 4), in log scale."""
-    if sampler == "orthogonal":
-        keep = [p * p for p in range(2, 64) if all(p % d for d in range(2, p))]
-    elif sampler == "ldsampler":
-        keep = [4 ** k for k in range(1, 8)]
-    else:
+    """``spp``, or where the sampler does not take it as is the nearest count it does
+    (``codermind.tutorial.xml.sampler_fits``; orthogonal: a prime's square, ldsampler: a
+    power of 4), in log scale."""
+    from codermind.tutorial.xml import sampler_fits
+    if sampler_fits(sampler, spp):
         return spp
+    keep = [n for n in range(1, 4 * spp + 1) if sampler_fits(sampler, n)]
     return min(keep, key=lambda n: abs(np.log(n / spp)))
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import signal
 import subprocess
@@ -86,33 +85,25 @@ def test_pass_split_is_exact_and_seeds_are_distinct():
     assert len(seeds) == 1000
 
 
-def _is_prime(p: int) -> bool:
-    return p > 1 and all(p % d for d in range(2, int(p ** 0.5) + 1))
+# The samplers whose kept counts the converter knows from Mitsuba's plugin docs
+# (codermind.tutorial.xml.sampler_fits): any, squares, powers of 4, squares of primes.
+KINDS = ("independent", "ldsampler", "orthogonal", "stratified")
 
 
-# The counts Mitsuba's samplers take as they are (their plugin docs): any, squares, squares
-# (multijitter's a x b includes them; not every count), powers of 4, squares of primes.
-KEEPS = {
-    "independent": lambda n: True,
-    "stratified": lambda n: round(n ** 0.5) ** 2 == n,
-    "ldsampler": lambda n: n >= 1 and 4 ** round(math.log(n, 4)) == n,
-    "orthogonal": lambda n: round(n ** 0.5) ** 2 == n and _is_prime(round(n ** 0.5)),
-}
-
-
-@pytest.mark.parametrize("kind", sorted(KEEPS))
+@pytest.mark.parametrize("kind", KINDS)
 def test_sampler_plan_passes_are_counts_the_sampler_keeps(llvm, kind):
     """Every pass of the plan is a count that the sampler does not round up (so a pass renders
     what it counts), and the passes add up to the request."""
     mi = llvm
     from codermind.render import sampler_plan
+    from codermind.tutorial.xml import sampler_fits
     sampler = mi.load_dict({"type": kind, "sample_count": 4})
     for spp in (16, 49, 64, 100, 256, 1024):
         if kind == "ldsampler" and spp == 49:       # refused (next test)
             continue
         plan = sampler_plan(sampler, spp, 1280 * 960)
         assert sum(plan) == spp
-        assert all(KEEPS[kind](n) for n in plan), (kind, spp, plan)
+        assert all(sampler_fits(kind, n) for n in plan), (kind, spp, plan)
     assert sampler.sample_count() == 4
 
 

@@ -74,8 +74,9 @@ def sampler_plan(sampler: mi.Sampler, spp: int, pixels: int,
             return plan
         limit = min(spp, pass_spp or max(1, STRATA_BUDGET // max(pixels, 1)))
         divisors = [n for n in range(1, spp + 1) if spp % n == 0 and kept(n)]
-        kept(spp)
-        rounded = sampler.sample_count()
+        if not divisors:
+            kept(spp)
+            rounded = sampler.sample_count()     # for the message
     finally:
         sampler.set_sample_count(count)
         logger.set_log_level(level)
