@@ -575,51 +575,99 @@ class Blob(mi.Mesh):
             walking &= _not(dr.isfinite(hit_t)) & dr.isfinite(t1) & (t0 < tmax)
         return hit_t
 
-    @dr.syntax
+    @staticmethod
+    def _lines_of(k: mi.Float) -> tuple[mi.Float, mi.Float]:
+        """The zone field's line (ds, di) of zone ``k`` (0: beyond x = 10), as
+        ``_zone_lines`` picks it from x."""
+        ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
+        di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
+        return dr.select(k == 0.0, 0.0, ds), dr.select(k == 0.0, 0.0, di)
+
+    @staticmethod
+    def _crossing(tc: mi.Float, x0: mi.Float, inv_a: mi.Float, k: mi.Float, out: mi.Bool
+                  ) -> mi.Float:
+        """A source's next zone-sphere crossing from zone ``k``: on the way in (``out``
+        false) where it enters zone k + 1, on the way out where it leaves zone k (inf
+        from zone 0)."""
+        level = 10.0 / dr.maximum(dr.select(out, k, k + 1.0), 1.0)
+        h = dr.safe_sqrt((level - x0) * inv_a)
+        return dr.select(out, dr.select(k >= 1.0, tc + h, dr.inf), tc - h)
+
     def _clean_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
                    active: mi.Bool = True) -> mi.Float:
         tcs, x0s, a = self._approach(ray)
+        inv_a = 1.0 / a
         bound = self._bound_level()
         t_enter, t_exit = mi.Float(dr.inf), mi.Float(-dr.inf)
         for tc, x0 in zip(tcs, x0s):
-            h = dr.safe_sqrt((bound - x0) / a)
+            h = dr.safe_sqrt((bound - x0) * inv_a)
             near = x0 < bound
             t_enter = dr.select(near, dr.minimum(t_enter, tc - h), t_enter)
             t_exit = dr.select(near, dr.maximum(t_exit, tc + h), t_exit)
         t0 = dr.maximum(t_enter, tmin)
         hi = dr.minimum(t_exit, tmax)
-        # per source, where the ray leaves the deepest zone it reaches (fixed along the ray)
-        t_deep = []
+        # per source: the deepest zone the ray reaches (fixed along it), the zone just past
+        # t0 (probed just beyond it), whether the ray is past that deepest zone's entry (on
+        # the way out), and the next crossing; the walk then moves one source at a time
+        probe = t0 + 1e-3
+        deeps, ks, outs, tns = [], [], [], []
         for tc, x0 in zip(tcs, x0s):
-            deepest = dr.minimum(dr.floor(10.0 / dr.maximum(x0, 1e-30)), 9.0)
-            t_deep.append(dr.select(deepest >= 1.0, tc + dr.safe_sqrt(
-                (10.0 / dr.maximum(deepest, 1.0) - x0) / a), dr.inf))
-        hit_t = mi.Float(dr.inf)
-        walking = mi.Bool(active) & (t0 < hi)
-        while walking:
-            # the next zone-sphere crossing after t0 (probed just beyond it), over all sources:
-            # before the closest approach the next level inwards (or, past the deepest, that
-            # zone's exit), after it the current level outwards; one level, one root each
+            deep = dr.minimum(dr.floor(10.0 / dr.maximum(x0, 1e-30)), 9.0)
+            u = probe - tc
+            k = dr.minimum(dr.floor(10.0 / dr.maximum(x0 + a * u * u, 1e-30)), deep)
+            out = (u >= 0) | (k >= deep)
+            deeps.append(deep)
+            ks.append(k)
+            outs.append(out)
+            tns.append(self._crossing(tc, x0, inv_a, k, out))
+        n = len(tcs)
+
+        def body(t0, hit_t, walking, ks, outs, tns):
             t1 = mi.Float(hi)
-            probe = t0 + 1e-3
-            for tc, x0, t_out in zip(tcs, x0s, t_deep):
-                u = probe - tc
-                kk = dr.floor(10.0 / dr.maximum(x0 + a * u * u, 1e-30))
-                inward = u < 0
-                k = dr.select(inward, kk + 1.0, dr.minimum(kk, 9.0))
-                level = 10.0 / dr.maximum(k, 1.0)
-                h = dr.safe_sqrt((level - x0) / a)
-                reach = (kk + 1.0 <= 9.0) & (level > x0)
-                tn = dr.select(inward, dr.select(reach, tc - h, t_out),
-                               dr.select(k >= 1.0, tc + h, dr.inf))
-                t1 = dr.minimum(t1, dr.select(tn > t0, tn, t1))
-            qa, qb, qg = self._quadratic(tcs, x0s, a, t0, t1)
+            for tn in tns:
+                t1 = dr.minimum(t1, tn)
+            # F - 1 = A s^2 + B s + G in s = t - t0 from each source's current line
+            qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
+            for tc, x0, k in zip(tcs, x0s, ks):
+                ds, di = self._lines_of(k)
+                u0 = t0 - tc
+                qa += ds * a
+                qb += ds * (2.0 * a * u0)
+                qg += ds * (x0 + a * u0 * u0) + di
             s = self._first_root(qa, qb, qg, 0.0, t1 - t0)
             found = dr.isfinite(s)
-            hit_t = dr.select(found, t0 + s, hit_t)
-            t0 = t1
-            walking &= _not(found) & (t0 < hi)
-        return hit_t
+            hit_t = dr.select(walking & found, t0 + s, hit_t)
+            # the source whose crossing ends the interval moves to its next zone
+            j = mi.UInt32(n)
+            for i in reversed(range(n)):
+                j = dr.select(tns[i] == t1, i, j)
+            tc_j, x0_j, k_j, out_j, deep_j = tcs[0], x0s[0], ks[0], outs[0], deeps[0]
+            for i in range(1, n):
+                on = j == i
+                tc_j = dr.select(on, tcs[i], tc_j)
+                x0_j = dr.select(on, x0s[i], x0_j)
+                k_j = dr.select(on, ks[i], k_j)
+                out_j = dr.select(on, outs[i], out_j)
+                deep_j = dr.select(on, deeps[i], deep_j)
+            k_j = dr.select(out_j, k_j - 1.0, k_j + 1.0)
+            out_j = out_j | (k_j >= deep_j)
+            tn_j = self._crossing(tc_j, x0_j, inv_a, k_j, out_j)
+            ks, outs, tns = list(ks), list(outs), list(tns)
+            for i in range(n):
+                on = walking & (j == i)
+                ks[i] = dr.select(on, k_j, ks[i])
+                outs[i] = dr.select(on, out_j, outs[i])
+                tns[i] = dr.select(on, tn_j, tns[i])
+            t0 = dr.select(walking, t1, t0)
+            walking = walking & _not(found) & (t0 < hi)
+            return t0, hit_t, walking, ks, outs, tns
+
+        walking = mi.Bool(active) & (t0 < hi)
+        state = (t0, mi.Float(dr.inf), walking, ks, outs, tns)
+        state = dr.while_loop(state, lambda t0, hit_t, walking, *_: walking, body,
+                              labels=("t0", "hit_t", "walking", "ks", "outs", "tns"),
+                              label="Blob._clean_hit")
+        return state[1]
 
     def interaction(self, ray: mi.Ray3f, t: mi.Float, active: mi.Bool = True
                     ) -> mi.SurfaceInteraction3f:
