@@ -27,8 +27,12 @@ processes share the machine), medians over ``--runs`` interleaved runs:
 refraction, its bump, the textures, the lens, the lights, depths, blob tessellation, pass
 size), with ``tutorialpath`` (and ``path``, one light scene), ``--breakdown-spp`` samples each.
 
+``--only-tutorialpath`` times tutorialpath alone (as converted); ``--vector-width 8``
+compiles Dr.Jit's kernels 8 wide without AVX-512, as on an AVX2 host (see
+``bench_pass_plan.py``; Embree keeps its own kernels).
+
 Run: ``nice python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]
-[--also 64]``.
+[--also 64] [--only-tutorialpath] [--vector-width 8]``.
 """
 
 from __future__ import annotations
@@ -112,6 +116,11 @@ def main() -> int:
     p.add_argument("--lights", default="sum,sample", help="path's light modes")
     p.add_argument("--breakdown", action="store_true")
     p.add_argument("--breakdown-spp", type=int, default=16)
+    p.add_argument("--only-tutorialpath", action="store_true",
+                   help="time only tutorialpath as converted (no mesh variants, no path)")
+    p.add_argument("--vector-width", type=int, choices=(0, 8), default=0,
+                   help="0: the host's (16 with AVX-512); 8: as an AVX2 host "
+                        "(bench_pass_plan.llvm_width)")
     args = p.parse_args()
     if not args.scene.is_file():
         print(f"no scene {args.scene} (../shared/tutorial missing?); pass --scene", file=sys.stderr)
@@ -120,12 +129,15 @@ def main() -> int:
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_pass_plan import llvm_width
+    width = llvm_width(dr, args.vector_width)
     import codermind  # noqa: F401
     from codermind.tutorial import render as tr
 
     folder = Path(tempfile.mkdtemp(prefix="bench_c256_"))
     print(f"scene {args.scene}, Complexity {args.complexity}, {load_text()}, "
-          f"{dr.thread_count()} Dr.Jit threads")
+          f"{dr.thread_count()} Dr.Jit threads, LLVM vector width {width}")
     xml = convert(args.scene, folder, "page4", spp=args.complexity)
     xml_path = convert(args.scene, folder, "page4_path", spp=args.complexity, integrator="path")
     model = dict(re.findall(r'<default name="(\w+)" value="([^"]+)"', xml.read_text()))
@@ -147,6 +159,8 @@ def main() -> int:
                "tutorialpath, mesh hits": (scene_mesh, "sum")}
     configs.update({f"path, lights={m}": (scene_path, m) for m in lights})
     first = [scene, scene_tess, scene_mesh] + tr.light_scenes(scene_path) + [scene_path]
+    if args.only_tutorialpath:
+        configs, first = {"tutorialpath": configs["tutorialpath"]}, [scene]
     _, t_first, c_first = timed(lambda: [np.array(mi.render(s, spp=1)) for s in first])
     e, t_probe, c_probe = timed(lambda: tr.probe_exposure(scene, settings, seed=0))
     print(f"load {t_load:.2f} s wall / {c_load:.2f} s CPU (with the blob mesh: {t_tess:.2f} / "
