@@ -1,7 +1,7 @@
 """Where ``tutorialpath``'s time goes on page 4: path lengths and SIMD divergence, the cost of
 its parts (integrator variants side by side), and the blob mesh against analytic spheres.
 
-    nice python benchmarks/profile_page4.py [--spp 8] [--runs 3]
+    nice python benchmarks/profile_page4.py [--spp 8] [--runs 3] [--vector-width 8]
 
 1. **Path lengths**: loop iterations per sample (16 one-sample renders), their histogram, and
    the mean of the longest path in a packet of 8 / 16 samples of one pixel (Mitsuba's render
@@ -96,8 +96,13 @@ def main() -> int:
     p.add_argument("--max-error", type=float, default=0.0864865,
                    help="another blob max_error for the blob table (default: the rule before "
                         "2026-12-02)")
+    p.add_argument("--vector-width", type=int, choices=(0, 8), default=0,
+                   help="8: Dr.Jit's kernels 8 wide without AVX-512 (bench_pass_plan.llvm_width)")
     args = p.parse_args()
+    import drjit as dr
     import mitsuba as mi
+    from bench_pass_plan import llvm_width
+    print(f"LLVM vector width {llvm_width(dr, args.vector_width)}")
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
     from codermind.tutorial import render as tr

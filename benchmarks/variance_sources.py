@@ -29,6 +29,8 @@ VARIANTS = {
     "no lens (Dispersion 0)": (("Scene", "Perspective.Dispersion", "0.0"),),
     "blob without bump": (("Material3", "Bumplevel", "0.0"),),
     "blob without refraction": (("Material3", "Refraction", "0.0"),),
+    # no mirror event at the glass: no sky reflection in front, no internal reflection
+    "blob without reflection": (("Material3", "Reflection", "0.0"),),
     "no lens, blob without bump": (("Scene", "Perspective.Dispersion", "0.0"),
                                    ("Material3", "Bumplevel", "0.0")),
 }
