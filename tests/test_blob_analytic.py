@@ -74,6 +74,24 @@ def test_first_hit_agrees_with_the_zone_solver(llvm):
     assert np.median(err) < 1e-4 and err.max() < 2e-3
 
 
+def test_many_sources_agree_with_the_zone_solver(llvm):
+    """[independent solver] Six sources at random (another bound level, crossings of
+    several sources interleaved along a ray; the walk moves one source per step): the first
+    crossing against blob_reference.first_hit, as for page 4's three."""
+    mi = llvm
+    rng = np.random.default_rng(21)
+    centers = rng.uniform(-1.5 * R, 1.5 * R, size=(6, 3))
+    shape = analytic_blob(mi, centers)
+    o, d = random_lines(rng, centers.min(0) - 2 * R, centers.max(0) + 2 * R, 3000)
+    expect = ref.first_hit(o, d, centers, R, "tutorial", tmin=0.01)
+    t = np.array(shape.analytic_hit(rays(mi, o, d), 0.01, mi.Float(np.inf), True))
+    assert np.isfinite(expect).sum() > 500 and (~np.isfinite(expect)).sum() > 100
+    assert (np.isfinite(t) == np.isfinite(expect)).mean() > 0.999
+    both = np.isfinite(t) & np.isfinite(expect)
+    err = np.abs(t[both] - expect[both])
+    assert np.median(err) < 1e-4 and err.max() < 2e-3
+
+
 def test_tmin_and_tmax_bound_the_crossing(llvm):
     """A ray leaving a surface point outwards does not find the point itself beyond the
     blob epsilon; one that leaves it inwards finds the far side; tmax before the hit: inf."""
