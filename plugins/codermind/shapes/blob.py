@@ -468,10 +468,7 @@ class Blob(mi.Mesh):
         The depth k = #{j in 1..9: x <= 10/j} = min(9, floor(10/x)) picks the cumulative
         tables' line (blobmesh.field); from k = 2 on they are the chords of 1/x (checked at
         import), so a few operations instead of one select per zone."""
-        k = dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0)
-        ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
-        di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
-        return dr.select(k == 0.0, 0.0, ds), dr.select(k == 0.0, 0.0, di)
+        return Blob._lines_of(dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0))
 
     @staticmethod
     def _first_root(qa: mi.Float, qb: mi.Float, qg: mi.Float, lo: mi.Float, span: mi.Float
@@ -577,8 +574,7 @@ class Blob(mi.Mesh):
 
     @staticmethod
     def _lines_of(k: mi.Float) -> tuple[mi.Float, mi.Float]:
-        """The zone field's line (ds, di) of zone ``k`` (0: beyond x = 10), as
-        ``_zone_lines`` picks it from x."""
+        """The zone field's line (ds, di) of zone ``k`` (0: beyond x = 10)."""
         ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
         di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
         return dr.select(k == 0.0, 0.0, ds), dr.select(k == 0.0, 0.0, di)
