@@ -488,9 +488,15 @@ class Blob(mi.Mesh):
         """F - 1 = A s^2 + B s + G in s = t - t0 on [t0, t1], no zone sphere crossed inside:
         each source's line taken at the midpoint."""
         tm = 0.5 * (t0 + t1)
+        return self._quadratic_of(tcs, x0s, a, t0, [self._zone_lines(x0 + a * dr.square(tm - tc))
+                                                    for tc, x0 in zip(tcs, x0s)])
+
+    @staticmethod
+    def _quadratic_of(tcs: list, x0s: list, a: mi.Float, t0: mi.Float, lines: list
+                      ) -> tuple[mi.Float, mi.Float, mi.Float]:
+        """F - 1 = A s^2 + B s + G in s = t - t0 with each source on its line (ds, di)."""
         qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
-        for tc, x0 in zip(tcs, x0s):
-            ds, di = self._zone_lines(x0 + a * dr.square(tm - tc))
+        for tc, x0, (ds, di) in zip(tcs, x0s, lines):
             u0 = t0 - tc
             qa += ds * a
             qb += ds * (2.0 * a * u0)
@@ -622,14 +628,8 @@ class Blob(mi.Mesh):
             t1 = mi.Float(hi)
             for tn in tns:
                 t1 = dr.minimum(t1, tn)
-            # F - 1 = A s^2 + B s + G in s = t - t0 from each source's current line
-            qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
-            for tc, x0, k in zip(tcs, x0s, ks):
-                ds, di = self._lines_of(k)
-                u0 = t0 - tc
-                qa += ds * a
-                qb += ds * (2.0 * a * u0)
-                qg += ds * (x0 + a * u0 * u0) + di
+            # F - 1 on the interval from each source's current zone
+            qa, qb, qg = self._quadratic_of(tcs, x0s, a, t0, [self._lines_of(k) for k in ks])
             s = self._first_root(qa, qb, qg, 0.0, t1 - t0)
             found = dr.isfinite(s)
             hit_t = dr.select(walking & found, t0 + s, hit_t)
