@@ -4,7 +4,8 @@ renderer we did not write) and against the port (through ``codermind compare``).
 * clean ``tutorialpath`` has ``path``'s expectation: per-pixel two-sample z-tests
   (tests/zstat.py, Sidak-corrected alpha 0.01) on every bundled scene and on the original
   scenes converted; scenes without randomness (pages 1-3) are compared value by value
-  against ``path`` summed over one-light scenes (exact: nothing random on either side);
+  against ``path`` summed over one-light scenes (exact: nothing random on either side; at
+  two spheres hit at exactly the same distance ``path`` may take either);
 * strict against the strict port on pages 1, 2 and 4 (``codermind compare --quirks strict``);
 * ``exact_hits``: a mirror blob sphere against Mitsuba's built-in sphere;
 * bad input: one-line errors.
@@ -60,6 +61,17 @@ PATH = ('<integrator type="path"><integer name="max_depth" value="$max_depth"/>'
         '<integer name="rr_depth" value="$max_depth"/></integrator>')
 
 
+_SHAPE = re.compile(r"<shape\b.*?</shape>", re.S)
+
+
+def reversed_shapes(text: str) -> str:
+    """``text`` with its shapes in the reverse order (ties between two shapes at exactly the
+    same distance then go the other way in ``tutorialpath``, which keeps the first listed)."""
+    shapes = _SHAPE.findall(text)
+    it = iter(shapes[::-1])
+    return _SHAPE.sub(lambda _: next(it), text)
+
+
 def moment(inner: str) -> str:
     return f'<integrator type="moment">{inner}</integrator>'
 
@@ -96,11 +108,21 @@ def test_clean_has_the_expectation_of_path(llvm, tmp_path, source):
         # nothing random: one sample is the value; path summed over one-light scenes
         defines["spp"] = 1
         mine = load(mi, swap_integrator(text, TUTORIALPATH), folder, **defines)
+        flipped = load(mi, swap_integrator(reversed_shapes(text), TUTORIALPATH), folder,
+                       **defines)
         ref = load(mi, swap_integrator(text, PATH), folder, **defines)
         a = np.array(mi.render(mine, spp=1), dtype=np.float64)
+        a2 = np.array(mi.render(flipped, spp=1), dtype=np.float64)
         b = sum(np.array(mi.render(s, spp=1), dtype=np.float64) for s in light_scenes(ref))
         assert a.max() > 0
-        bad = np.abs(a - b) > 1e-4 + 1e-4 * np.abs(b)
+        differ = lambda x: np.abs(x - b) > 1e-4 + 1e-4 * np.abs(b)   # noqa: E731
+        # tutorialpath keeps the first listed of two spheres at exactly the same distance
+        # (the tutorial's rule), Embree's BVH either: where path differs from one order it
+        # must equal the other, and such ties are rare (page 1: the 97 pixels of column
+        # x = 320, the mirror plane between its two upper spheres)
+        ties = np.abs(a - a2) > 1e-4 + 1e-4 * np.abs(a)
+        assert ties.mean() < 1e-3, f"{ties.sum()} of {ties.size} values are ties"
+        bad = differ(a) & differ(a2)
         assert bad.mean() < 1e-4, f"{bad.sum()} of {bad.size} values differ"
         return
     defines.update(spp=64, blob0_max_error=0.5) if "$blob0_max_error" in text else \
