@@ -471,6 +471,12 @@ class Blob(mi.Mesh):
         return Blob._lines_of(dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0))
 
     @staticmethod
+    def _field_of(x: mi.Float) -> mi.Float:
+        """One source's zone field f(x)."""
+        ds, di = Blob._zone_lines(x)
+        return dr.fma(ds, x, di)
+
+    @staticmethod
     def _first_root(qa: mi.Float, qb: mi.Float, qg: mi.Float, lo: mi.Float, span: mi.Float
                     ) -> mi.Float:
         """The smallest root s of qa s^2 + qb s + qg in [lo, span] (stable form), or inf."""
@@ -526,6 +532,10 @@ class Blob(mi.Mesh):
         if strict:
             return self._strict_hit(ray, tmin, tmax, active)
         return self._clean_hit(ray, tmin, tmax, active)
+
+    #: F units by which the clean walk widens the stretch of a ray where F >= 1 is possible
+    #: (the float32 rounding of each source's f is ~1e-7)
+    REACH_SLACK = 1e-4
 
     #: spec 2.10's zone radii r^2/R^2 "as written in the code" (zones 0..8)
     WRITTEN_RATIO = (10.0, 5.0, 3.33333, 2.5, 2.0, 1.66667, 1.42857, 1.25, 1.1111)
@@ -606,8 +616,24 @@ class Blob(mi.Mesh):
             near = x0 < bound
             t_enter = dr.select(near, dr.minimum(t_enter, tc - h), t_enter)
             t_exit = dr.select(near, dr.maximum(t_exit, tc + h), t_exit)
+        # where F >= 1 is possible at all: each source contributes at most f(x0), at its
+        # closest approach, so with M = sum f(x0_i), F(t) >= 1 needs M >= 1 and every source
+        # within M - 1 of its most, f(x_i(t)) >= f(x0_i) - (M - 1): an interval of t per
+        # source whose limit is not vacuous. The walk runs on their intersection (on page 4
+        # it takes half the walk's steps, and most rays that miss take none)
+        f0s = [self._field_of(x0) for x0 in x0s]
+        excess = f0s[0] - 1.0
+        for f0 in f0s[1:]:
+            excess += f0
+        for tc, x0, f0 in zip(tcs, x0s, f0s):
+            v = f0 - excess - self.REACH_SLACK
+            ds, di = self._lines_of(dr.clip(dr.ceil(10.0 * v) - 1.0, 1.0, 9.0))
+            h = dr.safe_sqrt(((v - di) / ds - x0) * inv_a)     # f(x) = v: f's inverse
+            near = v > 0.0
+            t_enter = dr.select(near, dr.maximum(t_enter, tc - h), t_enter)
+            t_exit = dr.select(near, dr.minimum(t_exit, tc + h), t_exit)
         t0 = dr.maximum(t_enter, tmin)
-        hi = dr.minimum(t_exit, tmax)
+        hi = dr.select(excess >= -self.REACH_SLACK, dr.minimum(t_exit, tmax), -dr.inf)
         # per source: the deepest zone the ray reaches (fixed along it), the zone just past
         # t0 (probed just beyond it), whether the ray is past that deepest zone's entry (on
         # the way out), and the next crossing; the walk then moves one source at a time
