@@ -294,8 +294,11 @@ def _notes(scene, model: Model, integrator: str = "tutorialpath",
                      + (", which also stands in for its 0.01 blob epsilon where a ray leaves "
                         "the blob's mesh; rays leaving exact blob points keep the 0.01"
                         if scene.blobs else "")
-                     + "); two spheres at exactly the same distance are hit in Mitsuba's BVH "
-                     "order, not the file's; arithmetic is float32.")
+                     + "); of two spheres at exactly the same distance the first in the file "
+                     "is hit, as in the tutorial (tutorialpath traces the spheres itself"
+                     + ("; with blob_tessellate true Embree does, in its BVH's order"
+                        if scene.blobs else "")
+                     + "); arithmetic is float32.")
     if scene.warnings:
         notes.append(f"The parser reported {len(scene.warnings)} warning(s) (values kept as the "
                      "original reads them): " + "; ".join(scene.warnings))
