@@ -158,27 +158,26 @@ def accumulate(scenes: list[mi.Scene], sensor: mi.Sensor | int, plan: list[int],
     total = None
     means, counts, times = [], [], []
     done = 0
+    # one pass of one scene is its own mean: kept in float32, without the float64 copies of
+    # the sum (each fresh array of a 1280 x 960 film costs its page faults, about 0.1 s a
+    # render on page 4)
+    single = len(plan) == 1 and len(scenes) == 1 and not variance
     for i, n in enumerate(plan):
         if should_stop():
             break
         t = time.perf_counter()
-        if len(plan) == 1 and len(scenes) == 1 and not variance:
-            # one film is its own mean: no float64 copies (each fresh array of a 1280 x 960
-            # film costs its page faults, about 0.1 s a render on page 4)
-            img = np.asarray(mi.render(scenes[0], sensor=sensor, spp=n,
-                                       seed=pass_seed(seed, i)), dtype=np.float32)
-            dr.sync_thread()
-            times.append(time.perf_counter() - t)
-            if progress:
-                progress.update(n, 1, 1)
-            return np.array(img[..., :3] if rgb else img, dtype=np.float32), None, n, times
-        arr = 0.0
+        arr = None
         for sc in scenes:
-            img = np.array(mi.render(sc, sensor=sensor, spp=n, seed=pass_seed(seed, i)),
-                           dtype=np.float64)
-            arr = arr + (img[..., :3] if rgb else img)
+            img = np.asarray(mi.render(sc, sensor=sensor, spp=n, seed=pass_seed(seed, i)),
+                             dtype=np.float32 if single else np.float64)
+            img = img[..., :3] if rgb else img
+            arr = img if arr is None else arr + img
         dr.sync_thread()
         times.append(time.perf_counter() - t)
+        if single:
+            if progress:
+                progress.update(n, 1, 1)
+            return np.array(arr, dtype=np.float32), None, n, times
         total = arr * n if total is None else total + arr * n
         if variance:
             means.append(arr)

@@ -18,18 +18,18 @@ import drjit as dr
 import mitsuba as mi
 
 
-def _solve(a: mi.Float, b: mi.Float, c: mi.Float) -> tuple[mi.Bool, mi.Float, mi.Float]:
-    """``mitsuba::math::solve_quadratic``: (found, near, far)."""
-    linear = a == 0.0
-    x_lin = -c / b
-    discrim = dr.fma(b, b, -(4.0 * a * c))
-    sq = dr.sqrt(dr.maximum(discrim, 0.0))
-    temp = -0.5 * (b + dr.copysign(sq, b))
-    x0p, x1p = temp / a, c / temp
-    near = dr.select(linear, x_lin, dr.minimum(x0p, x1p))
-    far = dr.select(linear, x_lin, dr.maximum(x0p, x1p))
-    found = (linear & (b != 0.0)) | (~linear & (discrim >= 0.0))
-    return found, near, far
+def _on_segment(ray: mi.Ray3f, o: mi.Vector3f, radius: float, shift: mi.Float | float = 0.0
+                ) -> tuple[mi.Bool, mi.Float]:
+    """The sphere's roots for the ray from ``o`` (its origin relative to the centre, moved
+    ``shift`` along the ray) and whether one lies on the ray's segment [0, maxt]: the
+    sphere's own bounds test, and its t (near, or far from inside)."""
+    d = mi.Vector3f(ray.d)
+    found, near, far = mi.math.solve_quadratic(dr.squared_norm(d), 2.0 * dr.dot(o, d),
+                                               dr.squared_norm(o) - radius * radius)
+    near, far = near + shift, far + shift
+    out = ~((near <= ray.maxt) & (far >= 0.0))
+    inside = (near < 0.0) & (far > ray.maxt)
+    return found & ~out & ~inside, dr.select(near < 0.0, far, near)
 
 
 class Spheres:
@@ -56,21 +56,14 @@ class Spheres:
             found.append((shape, [float(v[0]) for v in center], float(radius[0])))
         return Spheres(found)
 
-    def _hit_t(self, ray: mi.Ray3f, center, radius: float) -> tuple[mi.Bool, mi.Float]:
-        """``Sphere::ray_intersect_preliminary_impl``."""
-        l = ray.o - mi.Point3f(*center)
+    @staticmethod
+    def _hit_t(ray: mi.Ray3f, center, radius: float) -> tuple[mi.Bool, mi.Float]:
+        """``Sphere::ray_intersect_preliminary_impl``: the roots from the ray's closest
+        point to the centre (its plane shift), then moved back."""
+        c = mi.Point3f(*center)
         d = mi.Vector3f(ray.d)
-        plane_t = dr.dot(-l, d) / dr.norm(d)
-        o = dr.fma(d, plane_t, ray.o) - mi.Point3f(*center)
-        a = dr.squared_norm(d)
-        b = 2.0 * dr.dot(o, d)
-        c = dr.squared_norm(o) - radius * radius
-        found, near, far = _solve(a, b, c)
-        near, far = near + plane_t, far + plane_t
-        out = ~((near <= ray.maxt) & (far >= 0.0))
-        inside = (near < 0.0) & (far > ray.maxt)
-        ok = found & ~out & ~inside
-        return ok, dr.select(near < 0.0, far, near)
+        plane_t = dr.dot(c - ray.o, d) / dr.norm(d)
+        return _on_segment(ray, dr.fma(d, plane_t, ray.o) - c, radius, plane_t)
 
     def intersect(self, ray: mi.Ray3f, flags: mi.RayFlags, active: mi.Bool
                   ) -> mi.SurfaceInteraction3f:
@@ -94,13 +87,5 @@ class Spheres:
         """Whether any sphere meets ``ray`` before its maxt (``Sphere::ray_test_impl``)."""
         hit = mi.Bool(False)
         for _, center, radius in self.shapes:
-            o = ray.o - mi.Point3f(*center)
-            d = mi.Vector3f(ray.d)
-            a = dr.squared_norm(d)
-            b = 2.0 * dr.dot(o, d)
-            c = dr.squared_norm(o) - radius * radius
-            found, near, far = _solve(a, b, c)
-            out = ~((near <= ray.maxt) & (far >= 0.0))
-            inside = (near < 0.0) & (far > ray.maxt)
-            hit |= found & ~out & ~inside
+            hit |= _on_segment(ray, ray.o - mi.Point3f(*center), radius)[0]
         return active & hit
