@@ -97,7 +97,14 @@ class NoiseBumpBSDF(mi.BSDF):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         name = self.plugin
-        nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.BSDF)]
+        # only the nested objects are read here: a parameter this plugin does not know (a
+        # typo) stays unqueried, and Mitsuba refuses it when loading
+        nested = []
+        for key, obj in props.objects():
+            if not isinstance(obj, mi.BSDF):
+                raise ValueError(f"{name}: '{key}' is a {obj.class_name()}, but the only "
+                                 f"nested object it takes is one BSDF")
+            nested.append(obj)
         if len(nested) != 1:
             raise ValueError(f"{name}: needs exactly one nested BSDF, got {len(nested)}")
         self.nested = nested[0]
