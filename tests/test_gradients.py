@@ -38,7 +38,10 @@ def _tex(kind, **extra):
 SCENES = {
     "turbulence": lambda mi: _scene(mi, _tex("turbulence", octaves=3, color0={
         "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
-    "marble": lambda mi: _scene(mi, _tex("marble", octaves=3, color0={
+    # stripes at the tutorial's 0.05 per unit: at the default 5 the 12x12 pixels alias them,
+    # and the adjoint pass's own noise (seed_grad 2, 3, 4: 1.3e-3, 4.0e-4, 9.6e-4 against
+    # the difference's 8.2e-4) swamps the frequency's derivative at 32 spp
+    "marble": lambda mi: _scene(mi, _tex("marble", octaves=3, stripe_frequency=0.05, color0={
         "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
     # the frequencies at a frequency the 12x12 pixels resolve: at 2 per unit the
     # derivative of the mean pixel is the sum of many aliased bits of either sign, and
