@@ -241,6 +241,29 @@ def test_renders_in_scalar_rgb(scalar):
     assert centre < corner  # the diffuse blob (albedo 0.5) is darker than the sky
 
 
+@pytest.mark.parametrize("variant", ["llvm", "scalar"])
+def test_prints_like_a_mitsuba_shape(request, variant):
+    """``print(scene)`` and ``str(blob)`` work (a Python shape without ``to_string`` makes
+    nanobind fail: "get_trampoline(...Blob::to_string()): lookup failed") and say what the
+    blob is: its own parameters and the mesh's size, as Mitsuba's shapes print theirs."""
+    mi = request.getfixturevalue(variant)
+    shift = mi.ScalarTransform4f().translate([1, 2, 3])
+    d = blob_dict(mi, [[0, 0, 0], [100, 0, 0]], max_error=2.0, normals="field",
+                  to_world=shift)
+    blob = mi.load_dict(d)
+    text = str(blob)
+    print(text)     # shown with pytest -s
+    for part in ("Blob[", "centers = 2", f"radius = {R:g}", 'field = "tutorial"',
+                 'normals = "field"', "tessellate = true", "max_error = 2",
+                 f"vertex_count = {blob.vertex_count()}", f"face_count = {blob.face_count()}",
+                 "[0, 0, 0, 1]]", "bsdf = SmoothDiffuse["):
+        assert part in text
+    assert blob.face_count() > 100
+    scene = mi.load_dict({"type": "scene", "blob": d})
+    # nested, indented as a child, named by its key in the scene
+    assert text.replace('id = ""', 'id = "blob"').replace("\n", "\n    ") in str(scene)
+
+
 def _aimed_rays(mi, targets, rng, back, centre=np.zeros(3)):
     """Rays from ``back`` units before each target, towards it (steep: within 60 degrees
     of the inward direction through ``centre`` of the sphere-like blob)."""

@@ -738,6 +738,25 @@ class Blob(mi.Mesh):
             buffer("vertex_normals", n, np.float32)
         params.update()
 
+    def to_string(self) -> str:
+        # Mitsuba's own shapes print like this; a Python shape without it makes print(scene)
+        # fail (nanobind finds no trampoline)
+        def indent(value) -> str:
+            return str(value).replace("\n", "\n  ")
+
+        m = self.matrix
+        rows = ",\n              ".join("[" + ", ".join(f"{x:.6g}" for x in row) + "]"
+                                        for row in m)
+        return (f"Blob[\n  id = \"{self.id()}\",\n  centers = {len(self.centers)},\n"
+                f"  radius = {self.radius:.6g},\n  field = \"{self.field}\",\n"
+                f"  normals = \"{self.normals}\",\n"
+                f"  tessellate = {'true' if self.tessellated else 'false'},\n"
+                f"  max_error = {self.max_error:.6g},\n"
+                f"  to_world = [{rows}],\n"
+                f"  vertex_count = {self.vertex_count()},\n"
+                f"  face_count = {self.face_count()},\n"
+                f"  bsdf = {indent(self.bsdf())}\n]")
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         super().traverse(callback)
         nd = mi.ParamFlags.NonDifferentiable
