@@ -10,16 +10,21 @@ import numpy as np
 
 from ..exposed import exposed, scalar
 from ..masks import logical_not as _not
-from ..blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh import BlobMeshError, build_blob_mesh, estimate_cost
+from ..blobmesh.cost import ACCURACY
 from ..blobmesh.field import INTERCEPT, SLOPE
 
-from ..params import loose_number
+from ..params import check_float, loose_number
 
 # Blob._zone's closed form of the zone tables beyond the outermost zone
 assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 * k + 1) / 10)
            < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
 
 _CENTER = re.compile(r"center(\d+)$")
+
+#: ``max_triangles``' default: about 1 GB of the mesher's memory and up to a minute (see
+#: codermind.blobmesh.cost)
+MAX_TRIANGLES = 2_000_000
 
 # the strict walk's bound increments of zones 0..8: the float32 differences of the zone bounds
 # 0.2, 0.3, ..., 1.0 (spec 2.10: they sum to exactly 1 in a lone core)
@@ -63,6 +68,17 @@ def blob(props: mi.Properties) -> mi.Mesh:
          mesh is refined until the measured error is below it; the achieved error is
          logged at Info level (Warn if it could not be reached).
 
+     * - max_triangles
+       - |int|
+       - The largest mesh the blob may build, in triangles (Default: 2 000 000: about 1 GB
+         of the mesher's memory and up to a minute). Before meshing, the triangle count that
+         ``max_error`` needs is estimated from the centres, the radius, ``to_world`` and
+         ``max_error`` (from the surface's area and curvature, in a few tens of ms; measured
+         within 2x of the real count, and 0.86-1.13 of it above 12 000 triangles); above
+         this limit the blob is refused with a one-line error that gives the estimated
+         triangles, memory and time and the ``max_error`` that would fit. Raise it to allow
+         a larger mesh.
+
      * - normals
        - |string|
        - Vertex normals: ``exact`` (default; gradient of :math:`\sum R^2/d^2`, what the
@@ -96,7 +112,9 @@ def blob(props: mi.Properties) -> mi.Mesh:
     ``mi.traverse`` exposes ``centers`` (a flat ``mi.Float`` of 3N numbers, object
     space) and ``radius``, both differentiable, and ``max_error``; changing any of them
     re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
-    too). With gradients enabled on the centres or the radius, the vertex positions carry
+    too), after the same checks as at loading (an absurd value or a mesh above
+    ``max_triangles`` is refused in one line, and the blob stays as it was). With
+    gradients enabled on the centres or the radius, the vertex positions carry
     their derivatives by the implicit function theorem (vertex normals do not; on the
     ``tutorial`` field's creases, the zone spheres where the field has a kink, a vertex
     also stays on its crease). The mesh's own buffers
@@ -143,21 +161,52 @@ def blob(props: mi.Properties) -> mi.Mesh:
     if not tessellate and field != "tutorial":
         raise ValueError("blob: 'tessellate' = false needs field = 'tutorial' (the analytic "
                          "intersection solves the zone field's quadratics)")
-    max_error = loose_number(props, "blob", "max_error")
-    if max_error is None:
-        max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
-    return Blob(props, centers, radius, field, normals, matrix, max_error, tessellate)
+    max_error = loose_number(props, "blob", "max_error", scale * radius / 500.0)
+    max_triangles = loose_number(props, "blob", "max_triangles", MAX_TRIANGLES)
+    _check_limits(radius, max_error, max_triangles)
+    return Blob(props, centers, radius, field, normals, matrix, max_error, tessellate,
+                max_triangles)
+
+
+def _check_limits(radius: float, max_error: float, max_triangles: float) -> None:
+    """One-line errors for radius, max_error and max_triangles out of range."""
+    check_float("blob", "radius", radius, lo=0.0, open_lo=True)
+    check_float("blob", "max_error", max_error, lo=0.0, open_lo=True)
+    check_float("blob", "max_triangles", max_triangles, lo=1.0)
+
+
+def _refuse_runaway(centers: np.ndarray, radius: float, field: str, scale: float,
+                    max_error: float, max_triangles: float) -> None:
+    """A one-line ValueError, before any meshing, where the mesh for ``max_error`` (world
+    units) would have more than ``max_triangles`` triangles by the estimate of
+    :func:`codermind.blobmesh.estimate_cost` (within ``ACCURACY`` of the real count)."""
+    try:
+        cost = estimate_cost(centers, radius, field, max_error / scale)
+    except BlobMeshError as e:
+        raise ValueError(f"blob: {e}") from None
+    if cost.triangles > max_triangles:
+        fits = max_error * cost.triangles / max_triangles   # the count goes as 1/max_error
+        step = 10.0 ** (math.floor(math.log10(fits)) - 2)   # rounded up to 3 digits
+        fits = math.ceil(fits / step) * step
+        raise ValueError(
+            f"blob: 'max_error' {max_error:.3g} would need {cost.describe()} (estimated, "
+            f"within {ACCURACY:g}x), more than 'max_triangles' {max_triangles:.3g}: raise "
+            f"max_error to {fits:.3g} or more, or raise max_triangles")
 
 
 def _mesh_arrays(centers: np.ndarray, radius: float, field: str, normals: str,
-                 matrix: np.ndarray, max_error: float
+                 matrix: np.ndarray, max_error: float, max_triangles: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World-space vertices, faces and vertex normals (possibly empty) of the blob."""
     linear = matrix[:3, :3]
     scale = float(np.linalg.svd(linear, compute_uv=False)[0])
+    _refuse_runaway(centers, radius, field, scale, max_error, max_triangles)
     t0 = time.perf_counter()
     try:
+        # an accepted mesh has at most ACCURACY times the limit: the mesher's own cap there
+        # stops only a mesh the estimate got wrong
         mesh = build_blob_mesh(centers, radius, field, max_error / scale, normals=normals,
+                               max_triangles=int(ACCURACY * max_triangles),
                                log=lambda msg: mi.Log(mi.LogLevel.Debug, msg))
     except BlobMeshError as e:
         raise ValueError(f"blob: {e}") from None
@@ -191,8 +240,10 @@ class Blob(mi.Mesh):
     the scene, notified after the shape, rebuilds its acceleration structure)."""
 
     def __init__(self, props: mi.Properties, centers: np.ndarray, radius: float, field: str,
-                 normals: str, matrix: np.ndarray, max_error: float, tessellate: bool = True):
+                 normals: str, matrix: np.ndarray, max_error: float, tessellate: bool = True,
+                 max_triangles: float = MAX_TRIANGLES):
         self.tessellated = tessellate
+        self.max_triangles = max_triangles
         v, f, n = self._arrays(centers, radius, field, normals, matrix, max_error)
         super().__init__(props.id() or "blob", len(v), len(f), props,
                          has_vertex_normals=normals != "flat")
@@ -202,7 +253,8 @@ class Blob(mi.Mesh):
 
     def _arrays(self, centers, radius, field, normals, matrix, max_error):
         if self.tessellated:
-            return _mesh_arrays(centers, radius, field, normals, matrix, max_error)
+            return _mesh_arrays(centers, radius, field, normals, matrix, max_error,
+                                self.max_triangles)
         # no mesh: one degenerate triangle (Embree never reports it; a mesh without faces
         # cannot be intersected at all in 3.9.1)
         mi.Log(mi.LogLevel.Info, "blob: tessellate = false, only the tutorialpath "
@@ -752,6 +804,7 @@ class Blob(mi.Mesh):
                 f"  normals = \"{self.normals}\",\n"
                 f"  tessellate = {'true' if self.tessellated else 'false'},\n"
                 f"  max_error = {self.max_error:.6g},\n"
+                f"  max_triangles = {self.max_triangles:.6g},\n"
                 f"  to_world = [{rows}],\n"
                 f"  vertex_count = {self.vertex_count()},\n"
                 f"  face_count = {self.face_count()},\n"
@@ -777,6 +830,7 @@ class Blob(mi.Mesh):
                                  f"{flat.size}")
             radius = scalar(exposed(self, "radius"))
             max_error = scalar(exposed(self, "max_error"))
+            _check_limits(radius, max_error, self.max_triangles)
             v, f, n = self._arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
                                    self.matrix, max_error)
             self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
