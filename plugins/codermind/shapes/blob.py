@@ -113,12 +113,40 @@ def blob(props: mi.Properties) -> mi.Mesh:
     space) and ``radius``, both differentiable, and ``max_error``; changing any of them
     re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
     too), after the same checks as at loading (an absurd value or a mesh above
-    ``max_triangles`` is refused in one line, and the blob stays as it was). With
-    gradients enabled on the centres or the radius, the vertex positions carry
-    their derivatives by the implicit function theorem (vertex normals do not; on the
-    ``tutorial`` field's creases, the zone spheres where the field has a kink, a vertex
-    also stays on its crease). The mesh's own buffers
-    (``vertex_positions``, ...) are exposed as for any mesh.
+    ``max_triangles`` is refused in one line, and the blob stays as it was). The mesh's
+    own buffers (``vertex_positions``, ...) are exposed as for any mesh.
+
+    With gradients enabled on the centres or the radius, the vertex positions and normals
+    carry their derivatives: each vertex stays on the surface to first order (implicit
+    function theorem; on the ``tutorial`` field's creases, the zone spheres where the
+    field has a kink, also on its crease) and moves along it with the sources, and its
+    normal is the ``normals`` option's formula at the moved vertex. ``prb`` then
+    differentiates the shading and ``prb_projective`` also the silhouette: a one-source
+    blob's derivatives with respect to its centre and radius are those of the built-in
+    ``sphere`` (within 0.04 % without silhouette; the silhouette term within 0.3 % of the
+    closed form). Not differentiated:
+
+    * ``normals`` = ``flat``: the shading normal jumps at every facet edge, and the edges
+      sweep over the image as the surface moves; no integrator differentiates that
+      shading discontinuity. The vertices then move along the normal only, so that the
+      facets turn with the surface, but what the sweep contributes is missing: a
+      one-source blob moved towards the camera gives 0.043 where the sphere and finite
+      differences give 0.069 (tests/test_gradients.py's framing: 0.144 against 0.147),
+      and the polygonal contour slides, a few per cent of the silhouette term (-2.9 % to
+      +1.2 %). Use ``exact`` or ``field`` normals for gradients.
+    * ``normals`` = ``field`` on the ``tutorial`` field: the normal jumps across the
+      creases, which the mesh spreads over about a triangle; where creases sweep over the
+      image, their part is differentiated only approximately (along one direction of
+      two centres: AD -0.038 against differences of -0.045 and -0.048, themselves 6 %
+      apart; along another, 3.144 against 3.142 and 3.143).
+    * shadow edges of point lights (Mitsuba differentiates no shadow edge of a delta
+      light), and everything with ``tessellate`` = ``false``.
+
+    A reverse-mode pass through ``mi.render`` consumes the graph from ``centers`` and
+    ``radius`` to the mesh's buffers (Dr.Jit's ``ADFlag.ClearEdges``): update the
+    parameters (``params.update()``, as an optimiser loop does every step) before the
+    next differentiated render, or pass ``flags=dr.ADFlag.ClearVertices`` to
+    ``dr.backward`` to keep it.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
     isosurface; triangles where the measured error exceeds ``max_error`` are split by
@@ -263,23 +291,29 @@ class Blob(mi.Mesh):
         n = np.tile([0.0, 0.0, 1.0], (3, 1)) if normals != "flat" else np.zeros((0, 3))
         return np.tile(c, (3, 1)), np.array([[0, 1, 2]]), n
 
-    def _attached(self, v: np.ndarray):
-        """World vertices ``v``, with the derivatives with respect to the centres and the
-        radius attached when either has gradients enabled (else ``v`` itself).
+    def _attached(self, v: np.ndarray, n: np.ndarray) -> tuple:
+        """World vertices ``v`` and vertex normals ``n``, with their derivatives with respect
+        to the centres and the radius attached when either has gradients enabled (else
+        ``v`` and ``n`` themselves). The values stay those of ``v`` and ``n``.
 
-        A vertex p lies on F(p; c, R) = 1; moved along the field's gradient to stay on it
-        (implicit function theorem), dp = -(dF/dc . dc + dF/dR dR) grad_p F / |grad_p F|^2,
-        with dF/dc_i = -g_i (g_i: source i's term of grad_p F) and
-        dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a crease of the zone field (a
-        zone sphere x_i = 10/k, where F has a kink) also keeps x_i = 10/k: dp is then the
-        least-norm motion meeting both constraints. In world space dp is mapped by
-        to_world's linear part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
-        gradients through the shading normal)."""
+        A vertex p lies on F(p; c, R) = 1 and stays on it to first order (implicit function
+        theorem): grad_p F . dp = -(dF/dc . dc + dF/dR dR), with dF/dc_i = -g_i (g_i:
+        source i's term of grad_p F) and dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a
+        crease of the zone field (a zone sphere x_i = 10/k, where F has a kink) also keeps
+        x_i = 10/k. dp is the least-norm motion meeting the constraint(s) plus a tangential
+        part t projected onto their null space: with smooth normals the sources' own
+        motion weighted by their shares f_i (a one-source blob moves and scales as a
+        sphere), with ``flat`` normals none. In world space dp is mapped by to_world's
+        linear part. The vertex normal is the ``normals`` option's formula evaluated at
+        p + dp with c + dc (:meth:`_normal_of`), so that it turns with the surface under
+        the vertex; a normal kept fixed is wrong by the surface's turn over the vertex's
+        motion relative to it (a sphere moved by d: -d_tangential / R at a vertex moved
+        along its normal)."""
         if not dr.is_diff_v(mi.Float):
-            return v
+            return v, n
         c_ad, r_ad = exposed(self, "centers"), exposed(self, "radius")
         if not (dr.grad_enabled(c_ad) or dr.grad_enabled(r_ad)):
-            return v
+            return v, n
         from ..blobmesh.field import BlobField
         linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
         p = (v - shift) @ np.linalg.inv(linear).T          # object space
@@ -293,13 +327,16 @@ class Blob(mi.Mesh):
         s2 = mi.Float(0.0)                                 # the crease's x_i constraint
         crease = np.full(len(p), -1)
         normal2 = np.zeros_like(p)                         # grad_p x_i of that crease
+        dcs, shares = [], []
         for i, c in enumerate(field.centers):
             x = field.sqdist(p, i)
+            shares.append(field.f(x))
             df = field.df(x)                               # one-sided on a crease
             g = (2.0 * field.inv_r2) * df[:, None] * (p - c)
             grad += g
             dfdr += df * (-2.0 * x / field.radius)
             dc_i = [dr.gather(mi.Float, dc, 3 * i + axis) for axis in range(3)]
+            dcs.append(dc_i)
             s1 += sum(f32(g[:, axis]) * dc_i[axis] for axis in range(3))
             if field.kind == "tutorial":
                 # on a zone sphere x_i = 10/k the field has a kink; the vertex stays on the
@@ -315,7 +352,7 @@ class Blob(mi.Mesh):
                               for axis in range(3))
                     s2 += rhs + f32(np.where(at, 2.0 * x / field.radius, 0.0)) * dr_
         s1 -= f32(dfdr) * dr_
-        # dp = u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
+        # u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
         g2 = np.maximum((grad * grad).sum(1), 1e-300)
         u1, u2 = grad / g2[:, None], np.zeros_like(p)
         on = crease >= 0
@@ -330,9 +367,56 @@ class Blob(mi.Mesh):
             w2 = a * inv12[:, None] + b * inv22[:, None]
             idx = np.flatnonzero(on)[ok]
             u1[idx], u2[idx] = w1[ok], w2[ok]
-        u1, u2 = u1 @ linear.T, u2 @ linear.T
-        moved = [f32(v[:, k]) + f32(u1[:, k]) * s1 + f32(u2[:, k]) * s2 for k in range(3)]
-        return dr.ravel(mi.Point3f(*moved))
+        # the tangential part t, projected onto the null space of the constraints. Smooth
+        # normals: the sources' own motion (moved, and scaled about their centres) weighted
+        # by their shares f_i of F = 1. It changes no derivative of the smooth shading, but
+        # the mesh's silhouette keeps its shape instead of sliding over the contour, which
+        # moves its coverage error (a few per cent of the boundary term). Flat: none, so
+        # that the facets turn with the surface (a moved sphere's by -d_tangential / R),
+        # the part of the shading's change a facet can carry
+        if self.normals == "flat":
+            t = [mi.Float(0.0)] * 3
+        else:
+            w = np.array(shares) / np.maximum(np.sum(shares, axis=0), 1e-300)
+            t = [sum(f32(w[i]) * dcs[i][k] for i in range(len(w))) +
+                 f32(sum(w[i] * (p[:, k] - c[k]) for i, c in enumerate(field.centers))
+                     / field.radius) * dr_ for k in range(3)]
+        r1 = s1 - sum(f32(grad[:, k]) * t[k] for k in range(3))
+        r2 = s2 - sum(f32(normal2[:, k]) * t[k] for k in range(3))
+        dp = [t[k] + f32(u1[:, k]) * r1 + f32(u2[:, k]) * r2 for k in range(3)]  # object space
+        moved = [f32(v[:, k]) + sum(float(linear[k, j]) * dp[j] for j in range(3))
+                 for k in range(3)]
+        v_ad = dr.ravel(mi.Point3f(*moved))
+        if not len(n):                                     # 'flat': Mitsuba's facet normals
+            return v_ad, n
+        # the offsets p - c_i in float64, their motion dp - dc_i carried by AD
+        rel = [mi.Vector3f(*[f32(p[:, k] - c[k]) + dp[k] - dcs[i][k] for k in range(3)])
+               for i, c in enumerate(field.centers)]
+        normal = self._normal_of(field, p, rel)
+        normal = normal - dr.detach(normal)                # 0, carrying dn's gradients
+        return v_ad, dr.ravel(mi.Vector3f(*[f32(n[:, k]) + normal[k] for k in range(3)]))
+
+    def _normal_of(self, field, p: np.ndarray, rel: list) -> mi.Vector3f:
+        """The ``normals`` option's unit world normal at the vertices ``p`` (object space)
+        from their offsets ``rel`` = p - c_i from the centres (Dr.Jit arrays, derivatives
+        included): ``exact`` (and ``field`` on the exact field) the direction of
+        sum x_i^-2 (p - c_i), ``field`` on the zone field that of -sum f'_i (p - c_i) with
+        each source's slope f'_i in p's zone (on a crease the mean of both sides, as the
+        mesher's normal), which stays while the vertex stays in its zone and on its crease.
+        Neither depends on R but through p (a positive common factor)."""
+        g = mi.Vector3f(0.0)
+        for i, q in enumerate(rel):
+            x = field.sqdist(p, i)
+            if self.normals == "exact" or field.kind == "exact":
+                # the mesher skips a source within 0.001 units of the point, as the tutorial
+                keep = mi.Float(np.asarray(x * field.radius ** 2 > 0.001, dtype=np.float32))
+                g += keep / dr.square(dr.squared_norm(q) * field.inv_r2) * q
+            else:
+                slope = field.df(x, mean_at_bounds=True)
+                g += mi.Float(np.ascontiguousarray(-slope, dtype=np.float32)) * q
+        inv_t = np.linalg.inv(self.matrix[:3, :3]).T       # normals: the inverse transpose
+        to_world = mi.ScalarMatrix3f([[float(a) for a in row] for row in inv_t])
+        return dr.normalize(to_world @ g)
 
     # -- hits on the exact surface (called by the tutorialpath integrator) ----------------
     #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
@@ -834,7 +918,9 @@ class Blob(mi.Mesh):
             v, f, n = self._arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
                                    self.matrix, max_error)
             self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
-            self._set_buffers(self._attached(v) if self.tessellated else v, f, n)
+            if self.tessellated:
+                v, n = self._attached(v, n)
+            self._set_buffers(v, f, n)
         rest = [k for k in keys if k not in own]
         if rest or not keys:
             super().parameters_changed(rest)
