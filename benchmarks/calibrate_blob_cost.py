@@ -62,8 +62,8 @@ def main() -> None:
         a = np.array(r)
         print(f"{field}: real/estimate {a[:, 0].min():.3f}-{a[:, 0].max():.3f} "
               f"(median {np.median(a[:, 0]):.3f}); us per triangle median "
-              f"{1e6 * np.median(a[:, 1]):.1f}; bytes per triangle median {np.median(a[:, 2]):.0f}, "
-              f"max {a[:, 2].max():.0f}")
+              f"{1e6 * np.median(a[:, 1]):.1f}; bytes per triangle median "
+              f"{np.median(a[:, 2]):.0f}, max {a[:, 2].max():.0f}")
 
 
 if __name__ == "__main__":

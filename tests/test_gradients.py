@@ -210,9 +210,9 @@ def test_blob_vertex_normals_follow_the_surface_to_first_order(llvm, key, delta,
     by +-dp/2 for parameters changed by +-delta/2, under a non-uniform ``to_world``: the
     normal turns with the surface under the vertex. Measured: at most 1.2e-8 at the 99th
     percentile, against a median |dn| of 1.7e-4 to 5e-4 (what a normal held fixed is wrong
-    by); asserted within 1e-3 of that median. The zone field's ``field`` normal is the slope of the vertex's
-    zone, which the difference re-evaluates at the moved point: the vertices on a crease
-    (where it switches sides) are left out there."""
+    by); asserted within 1e-3 of that median. The zone field's ``field`` normal is the
+    slope of the vertex's zone, which the difference re-evaluates at the moved point: the
+    vertices on a crease (where it switches sides) are left out there."""
     import drjit as dr
     from codermind.blobmesh.field import BlobField
     from codermind.blobmesh.mesh import _vertex_normals

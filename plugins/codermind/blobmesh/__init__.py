@@ -19,5 +19,5 @@ from .field import FIELDS
 from .geom import min_angles_deg
 from .mesh import NORMALS, BlobMesh, BlobMeshError, build_blob_mesh
 
-__all__ = ["Cost", "FIELDS", "NORMALS", "BlobMesh", "BlobMeshError", "build_blob_mesh", "estimate_cost",
-           "min_angles_deg"]
+__all__ = ["Cost", "FIELDS", "NORMALS", "BlobMesh", "BlobMeshError", "build_blob_mesh",
+           "estimate_cost", "min_angles_deg"]
