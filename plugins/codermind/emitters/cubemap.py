@@ -8,7 +8,7 @@ import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
 from codermind.exposed import exposed, scalar, scalar_matrix, take_float
-from codermind.params import FLOAT32_MAX, flag, read_float
+from codermind.params import FLOAT32_MAX, flag, float32, read_float
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -149,8 +149,11 @@ class CubeMap(mi.Emitter):
                    "sampling_weight: light samples that pick it are wasted")
         self.srgb = flag(props, "cubemap", "srgb", False)
         self.exposed = flag(props, "cubemap", "exposed", False)
-        self.exposure = read_float(props, "cubemap", "exposure", 1.0, lo=0.0, open_lo=True)
-        self.scale = read_float(props, "cubemap", "scale", 1.0)
+        # kept as float32, as mi.traverse hands them out (their own values written back then
+        # change nothing; _decode divides in float32 either way)
+        self.exposure = float32(read_float(props, "cubemap", "exposure", 1.0, lo=0.0,
+                                           open_lo=True))
+        self.scale = float32(read_float(props, "cubemap", "scale", 1.0))
         if not abs(self.scale / self.exposure) <= FLOAT32_MAX:
             raise ValueError(f"cubemap: 'scale' / 'exposure' = {self.scale / self.exposure:g} "
                              f"is beyond float32")
@@ -189,7 +192,9 @@ class CubeMap(mi.Emitter):
             c = np.power(c, 2.2) if np_mode else dr.power(c, 2.2)
         if self.exposed:
             c = -np.log(1.001 - c) if np_mode else -dr.log(1.001 - c)
-        return c * (self.scale / self.exposure)
+        if np_mode:
+            return c * (float(self.scale) / self.exposure)
+        return c * (self.scale / mi.Float(self.exposure))
 
     def lookup(self, d: mi.Vector3f, active: mi.Bool = True) -> mi.Color3f:
         """Radiance arriving from local direction ``d`` (need not be normalised)."""
