@@ -156,6 +156,12 @@ def test_float32_breakdown(llvm):
     assert np.std(noise32(llvm, p)) > 0.1
 
 
+#: The tutorial's frequencies (per pixel, its world unit); the plugins' defaults are for
+#: scenes in units of 100 pixels
+TUTORIAL_FREQUENCIES = {"turbulence": {"frequency": 0.05},
+                        "marble": {"frequency": 0.05, "stripe_frequency": 0.05}}
+
+
 @pytest.mark.parametrize("gradient", GRADIENTS)
 @pytest.mark.parametrize("kind", ["turbulence", "marble"])
 def test_turbulence_and_marble_match_reference(llvm, kind, gradient):
@@ -165,7 +171,7 @@ def test_turbulence_and_marble_match_reference(llvm, kind, gradient):
     rng = np.random.default_rng(21)
     p = (rng.uniform(-1, 1, (3, 200_000)) * 1e3).astype(np.float32)
     reference = getattr(perlin64, kind)(p.astype(np.float64), gradient=gradient)
-    texture = mi.load_dict({"type": kind, "gradient": gradient})
+    texture = mi.load_dict({"type": kind, "gradient": gradient, **TUTORIAL_FREQUENCIES[kind]})
     si = interaction(mi, p)
     for values in (texture.eval_1(si).numpy()[None], texture.eval(si).numpy(),
                    texture.eval_3(si).numpy()):
@@ -177,7 +183,8 @@ def test_mix_is_unclamped(llvm):
     mi = llvm
     c0, c1 = np.array([0.35, 0.25, 0.01]), np.array([0.5, 0.5, 0.01])
     texture = mi.load_dict({"type": "turbulence", "color0": {"type": "rgb", "value": c0.tolist()},
-                            "color1": {"type": "rgb", "value": c1.tolist()}})
+                            "color1": {"type": "rgb", "value": c1.tolist()},
+                            **TUTORIAL_FREQUENCIES["turbulence"]})
     rng = np.random.default_rng(5)
     p = (rng.uniform(-1, 1, (3, 200_000)) * 1e3).astype(np.float32)
     t = perlin64.turbulence(p.astype(np.float64))
@@ -202,7 +209,8 @@ def test_frequency_octaves_and_to_world(llvm):
     turb = mi.load_dict({"type": "turbulence", "frequency": 0.2, "octaves": 3})
     np.testing.assert_allclose(turb.eval_1(si).numpy(),
                                perlin64.turbulence(p.astype(np.float64), 0.2, 3), atol=2e-5)
-    marble = mi.load_dict({"type": "marble", "stripe_frequency": 0.3, "octaves": 2})
+    marble = mi.load_dict({"type": "marble", "frequency": 0.05, "stripe_frequency": 0.3,
+                           "octaves": 2})
     np.testing.assert_allclose(marble.eval_1(si).numpy(),
                                perlin64.marble(p.astype(np.float64), 0.05, 2, 0.3), atol=2e-5)
 
@@ -228,6 +236,36 @@ def test_means(llvm, gradient):
     assert marble.mean()[0] == pytest.approx(0.5, rel=1e-6)
 
 
+def _on_unit_sphere(mi, n: int, seed: int, jitter: float = 0.0):
+    """Interactions at ``n`` random points of the unit sphere, each moved by a random step of
+    about ``jitter`` and put back on the sphere."""
+    import drjit as dr
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(3, n))
+    p /= np.linalg.norm(p, axis=0)
+    q = p + jitter * rng.normal(size=p.shape) / np.sqrt(3)
+    q /= np.linalg.norm(q, axis=0)
+    si = dr.zeros(mi.SurfaceInteraction3f, n)
+    si.p = mi.Point3f(*q.astype(np.float32))
+    return si
+
+
+@pytest.mark.parametrize("kind", ["turbulence", "marble"])
+def test_defaults_vary_over_an_object_of_radius_one(llvm, kind):
+    """The default frequencies suit a scene in Mitsuba's usual units: over a sphere of radius
+    1 the texture changes by more than 0.05 on average between points about 0.1 apart
+    (measured: marble 0.098, turbulence 0.18). At the tutorial's per-pixel frequencies
+    the same sphere is nearly uniform (0.009 and 0.019): the control."""
+    mi = llvm
+    a, b = _on_unit_sphere(mi, 20_000, 3), _on_unit_sphere(mi, 20_000, 3, jitter=0.1)
+
+    def change(texture):
+        return np.abs(texture.eval_1(a).numpy() - texture.eval_1(b).numpy()).mean()
+
+    assert change(mi.load_dict({"type": kind})) > 0.05
+    assert change(mi.load_dict({"type": kind, **TUTORIAL_FREQUENCIES[kind]})) < 0.025
+
+
 def test_textures_in_both_bsdfs_from_xml(llvm):
     """Nested in blinnphong (a reflectance, colours in [0, 1]) and in the tutorial
     material, from XML, and rendered with path."""
@@ -246,6 +284,7 @@ def test_textures_in_both_bsdfs_from_xml(llvm):
         <bsdf type="blinnphong">
           <texture type="marble" name="diffuse_reflectance">
             <rgb name="color0" value="0.5, 0.5, 0.5"/><rgb name="color1" value="0.15, 0.01, 0.15"/>
+            <float name="frequency" value="0.05"/><float name="stripe_frequency" value="0.05"/>
           </texture>
         </bsdf>
       </shape>
@@ -254,6 +293,7 @@ def test_textures_in_both_bsdfs_from_xml(llvm):
         <bsdf type="tutorial">
           <texture type="turbulence" name="diffuse">
             <rgb name="color0" value="0.35, 0.25, 0.01"/><rgb name="color1" value="0.5, 0.5, 0.01"/>
+            <float name="frequency" value="0.05"/>
           </texture>
           <float name="density" value="1"/>
         </bsdf>
@@ -295,7 +335,8 @@ def test_scalar_variant(scalar):
         for kind, reference in (("perlin", perlin64.noise(*p, gradient)),
                                 ("turbulence", perlin64.turbulence(p, gradient=gradient)),
                                 ("marble", perlin64.marble(p, gradient=gradient))):
-            texture = mi.load_dict({"type": kind, "gradient": gradient})
+            texture = mi.load_dict({"type": kind, "gradient": gradient,
+                                    **TUTORIAL_FREQUENCIES.get(kind, {})})
             assert texture.eval_1(si) == pytest.approx(float(reference[0]), abs=1e-4)
             assert np.allclose(np.array(texture.eval(si)), float(reference[0]), atol=1e-4)
 

@@ -58,3 +58,23 @@ def test_helpers_without_mitsuba_keep_their_identity_across_switches():
     mi.set_variant("scalar_rgb")
     mi.set_variant("llvm_ad_rgb")
     assert blobmesh.BlobMeshError is error_type
+
+
+@pytest.mark.parametrize("variant", ["llvm_ad_mono", "scalar_spectral", "llvm_ad_spectral_polarized"])
+def test_other_variants_refuse_every_plugin_in_one_line(variant):
+    """Outside the RGB variants each plugin of ours refuses to be built, in one line naming
+    itself and the variant; back in an RGB variant they build again."""
+    import mitsuba as mi
+    import codermind  # noqa: F401
+    from codermind import registry
+    from codermind.errors import one_line
+    names = [m.rsplit(".", 1)[1] for m in registry.plugin_modules()]
+    mi.set_variant(variant)
+    try:
+        for name in names:
+            with pytest.raises(RuntimeError) as e:
+                mi.load_dict({"type": name})
+            assert f"{name}: the variant '{variant}' is not supported" in one_line(str(e.value))
+    finally:
+        mi.set_variant("llvm_ad_rgb")
+    assert type(mi.load_dict(POINT)).__name__ == "TutorialPointLight"

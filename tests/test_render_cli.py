@@ -200,6 +200,42 @@ def test_scalar_variant_renders(tmp_path):
     assert np.isfinite(read_exr(tmp_path / "s.exr")).all()
 
 
+def test_error_raised_inside_the_render_is_the_plugin_s_own(tmp_path):
+    """strict tutorialpath refuses the scene's environment light when the render starts: the
+    user reads that refusal, not Dr.Jit's wrapper ("... (see above)") around it."""
+    strict = '<integrator type="tutorialpath"><string name="quirks" value="strict"/></integrator>'
+    line = _one_line_error(run_cli("render", write_scene(tmp_path, strict, 8, 8),
+                                   "-o", tmp_path / "s"))
+    assert "tutorialpath: quirks=strict has no light source" in line
+    assert "see above" not in line and not list(tmp_path.glob("s.*"))
+
+
+@pytest.mark.parametrize("variant", ["llvm_ad_mono", "llvm_ad_spectral"])
+def test_unsupported_variant_is_refused_in_one_line_before_rendering(tmp_path, variant):
+    """The plugins support the RGB variants: in another, the scene's first plugin of ours
+    (here tutorialpoint) refuses it while the scene loads, naming itself and the variant."""
+    line = _one_line_error(run_cli("render", write_scene(tmp_path, width=8, height=8),
+                                   "-o", tmp_path / "s", "--variant", variant))
+    assert "tutorialpoint: the variant" in line and variant in line and "scene.xml" in line
+    assert not list(tmp_path.glob("s.*"))
+
+
+def test_mono_variant_renders_a_scene_of_builtins(tmp_path):
+    """A scene of Mitsuba's own plugins renders in llvm_ad_mono: a one-channel EXR and the
+    PNG in grey (R = G = B)."""
+    scene = tmp_path / "plain.xml"
+    scene.write_text(SCENE.format(integrator=PATH, width=12, height=8).replace(
+        '<emitter type="tutorialpoint"><point name="position" x="2" y="3" z="-2"/>'
+        '<rgb name="intensity" value="1.5"/></emitter>', ""))
+    out = run_cli("render", scene, "-o", tmp_path / "m", "--spp", "2", "--variant",
+                  "llvm_ad_mono")
+    assert out.returncode == 0, out.stderr
+    assert read_exr(tmp_path / "m.exr").shape == (8, 12)     # one channel: luminance
+    import mitsuba as mi
+    png = np.array(mi.Bitmap(str(tmp_path / "m.png")))
+    assert png.shape == (8, 12, 3) and (png[..., 0] == png[..., 1]).all() and png.max() > 0
+
+
 def test_ctrl_c_writes_the_finished_passes_and_no_temp_files(tmp_path):
     scene = write_scene(tmp_path, width=64, height=48)
     proc = subprocess.Popen(

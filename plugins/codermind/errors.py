@@ -21,6 +21,15 @@ _UNREFERENCED = re.compile(
 _TRACEBACK = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t]+.*\n)*")
 
 
+def raised_inside(error: BaseException) -> BaseException:
+    """The error that a plugin raised inside a render. Dr.Jit reports an exception raised
+    in a custom differentiable operation (``mi.render``) or a symbolic loop as a
+    RuntimeError that says "(see above)" and chains the original as its ``__cause__``."""
+    while error.__cause__ is not None and "see above" in str(error):
+        error = error.__cause__
+    return error
+
+
 def one_line(message: str) -> str:
     """Condense a (possibly multi-line, Mitsuba-prefixed) error message into one line."""
     message = _TRACEBACK.sub("", str(message).strip())

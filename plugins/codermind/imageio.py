@@ -60,8 +60,12 @@ def write_exr(path: str | os.PathLike, image: np.ndarray,
 
 
 def write_png_srgb(path: str | os.PathLike, rgb: np.ndarray) -> None:
-    """Write linear RGB as an 8-bit sRGB PNG atomically (clamped, rounded)."""
-    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float32)[:, :, :3], nan=0.0, posinf=1.0)
+    """Write linear RGB as an 8-bit sRGB PNG atomically (clamped, rounded); one channel
+    (a ``mono`` variant's luminance) is written grey."""
+    rgb = np.asarray(rgb, dtype=np.float32)
+    if rgb.ndim == 2 or rgb.shape[2] == 1:
+        rgb = np.repeat(rgb.reshape(rgb.shape[0], rgb.shape[1], 1), 3, axis=2)
+    rgb = np.nan_to_num(rgb[:, :, :3], nan=0.0, posinf=1.0)
     bmp = mi.Bitmap(np.ascontiguousarray(rgb), mi.Bitmap.PixelFormat.RGB)
     bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
     write_png_bytes(path, np.array(bmp, copy=False))

@@ -29,9 +29,38 @@ def plugin_modules() -> list[str]:
     return names
 
 
+#: Mitsuba's registration function of each category
+_REGISTER = {"textures": "register_texture", "bsdfs": "register_bsdf",
+             "shapes": "register_shape", "sensors": "register_sensor",
+             "emitters": "register_emitter", "integrators": "register_integrator"}
+
+
+def supported(variant: str) -> bool:
+    """Whether the plugins support ``variant``: the RGB variants (``scalar_rgb``,
+    ``llvm_ad_rgb``, ``cuda_ad_rgb``). The tutorial computes in RGB; its colours, cube-map
+    faces and tone pipeline have no spectral or polarized meaning here."""
+    return variant.endswith("_rgb") and "polarized" not in variant
+
+
+def _refusal(name: str, variant: str):
+    def refuse(props: mi.Properties):
+        rgb = ", ".join(v for v in mi.variants() if supported(v))
+        raise ValueError(f"{name}: the variant {variant!r} is not supported; use an RGB "
+                         f"variant ({rgb})")
+    return refuse
+
+
 def register_all() -> None:
-    """(Re-)register every plugin for the current variant (no-op without one)."""
-    if mi.variant() is None:
+    """(Re-)register every plugin for the current variant (no-op without one). In a variant
+    the plugins do not support, each plugin's name is registered with a factory that refuses
+    it in one line, so a scene naming one fails at loading, before any rendering."""
+    variant = mi.variant()
+    if variant is None:
+        return
+    if not supported(variant):
+        for name in plugin_modules():
+            category, plugin = name.split(".")[-2:]
+            getattr(mi, _REGISTER[category])(plugin, _refusal(plugin, variant))
         return
     for category in CATEGORIES:
         # Shared helpers (``_noise`` etc.) may hold variant-specific types too.

@@ -27,8 +27,11 @@ class NoiseBumpBSDF(mi.BSDF):
 
      * - frequency
        - |float|
-       - Noise frequency :math:`f` per world unit (Default: 0.1, the tutorial's, whose
-         scenes are in pixels)
+       - Noise frequency :math:`f` per world unit (Default: 10, the tutorial's 0.1 per
+         pixel scaled to a scene in units 100 times the tutorial's pixels, where bumps on
+         an object of radius 1 look as on the tutorial's spheres of radius 100; at 0.1 the
+         noise hardly varies over such an object, which then only tilts evenly;
+         ``codermind convert`` writes the tutorial's 0.1)
 
      * - gradient
        - |string|
@@ -97,12 +100,19 @@ class NoiseBumpBSDF(mi.BSDF):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         name = self.plugin
-        nested = [props.get(k) for k in props.keys() if isinstance(props.get(k), mi.BSDF)]
+        # only the nested objects are read here: a parameter this plugin does not know (a
+        # typo) stays unqueried, and Mitsuba refuses it when loading
+        nested = []
+        for key, obj in props.objects():
+            if not isinstance(obj, mi.BSDF):
+                raise ValueError(f"{name}: '{key}' is a {obj.class_name()}, but the only "
+                                 f"nested object it takes is one BSDF")
+            nested.append(obj)
         if len(nested) != 1:
             raise ValueError(f"{name}: needs exactly one nested BSDF, got {len(nested)}")
         self.nested = nested[0]
         self.bumplevel = read_float(props, name, "bumplevel", 0.1, lo=0.0, hi=1.0)
-        self.frequency = read_float(props, name, "frequency", 0.1, lo=0.0, open_lo=True)
+        self.frequency = read_float(props, name, "frequency", 10.0, lo=0.0, open_lo=True)
         self.leak_check = flag(props, name, "leak_check", False)
         self.gradient = _noise.read_gradient(props, name)
         self.identity = "to_world" not in props

@@ -12,9 +12,12 @@ SHADOW_EPSILON = mi.math.ShadowEpsilon
 
 
 def _mis_weight(pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
-    """Power heuristic, as Mitsuba's ``path``."""
+    """Power heuristic, as Mitsuba's ``path``: 0 where it is not finite (a light sample
+    at grazing incidence on an area light has pdf inf, and inf / inf is NaN)."""
     a2 = dr.square(pdf_a)
-    return dr.detach(dr.select(pdf_a > 0, a2 / dr.fma(pdf_b, pdf_b, a2), 0.0))
+    total = a2 + dr.square(pdf_b)
+    w = a2 / dr.select(total > 0, total, 1.0)      # (scalar variants raise on 0 / 0)
+    return dr.detach(dr.select(dr.isfinite(w), w, 0.0))
 
 
 def _eval_sample(bsdf: mi.BSDF, ctx: mi.BSDFContext, si: mi.SurfaceInteraction3f,
@@ -207,7 +210,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         if self.quirks == "strict":
             if sampled:
                 raise ValueError(f"tutorialpath: quirks=strict has no light source "
-                                 f"{sampled[0].id() or type(sampled[0]).__name__!r} in the "
+                                 f"{sampled[0].id() or sampled[0].class_name()!r} in the "
                                  "tutorial (area or environment light): use quirks=clean")
             for shape in scene.shapes():
                 bsdf = shape.bsdf()
@@ -403,7 +406,13 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             mis = mi.Float(1.0)
             if dr.hint(generic, mode="scalar"):
                 ds_hit = mi.DirectionSample3f(scene, si, prev_si)
-                em_pdf = scene.pdf_emitter_direction(prev_si, ds_hit, _not(prev_delta))
+                if dr.hint(self.scalar, mode="scalar"):
+                    # a scalar call dereferences the emitter: none on a miss without an
+                    # environment, or on a surface that emits nothing
+                    em_pdf = mi.Float(0.0) if emitter is None or prev_delta else \
+                        scene.pdf_emitter_direction(prev_si, ds_hit, True)
+                else:
+                    em_pdf = scene.pdf_emitter_direction(prev_si, ds_hit, _not(prev_delta))
                 mis = dr.select(prev_delta, 1.0, _mis_weight(prev_pdf, em_pdf))
             if dr.hint(self.scalar, mode="scalar"):
                 if emitter is not None:

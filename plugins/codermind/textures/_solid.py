@@ -147,12 +147,12 @@ def _transposed(to_local: mi.Transform4f, g: mi.Vector3f) -> mi.Vector3f:
 
 
 class TurbulenceBase(SolidTexture):
-    """Colours, ``frequency`` (default 0.05) and ``octaves`` (default 9) of the tutorial's
-    turbulence, shared by ``turbulence`` and ``marble``."""
+    """Colours, ``frequency`` (default 5 per unit) and ``octaves`` (default 9) of the
+    tutorial's turbulence, shared by ``turbulence`` and ``marble``."""
 
     def __init__(self, props: mi.Properties):
         super().__init__(props, mixes_colors=True)
-        self.frequency = positive_float(props, self.plugin, "frequency", 0.05)
+        self.frequency = positive_float(props, self.plugin, "frequency", 5.0)
         self.octaves = octave_count(props, self.plugin)
         self.gradient = _noise.read_gradient(props, self.plugin)
 

@@ -34,9 +34,10 @@ class MarbleTexture(TurbulenceBase):
 
      * - frequency
        - |float|
-       - Base frequency :math:`f` of the turbulence per world unit (Default: 0.05, the
-         tutorial's, whose scenes are in pixels: a metre-scale scene needs about 100
-         times more)
+       - Base frequency :math:`f` of the turbulence per world unit (Default: 5, the
+         tutorial's 0.05 per pixel scaled to a scene in units 100 times the tutorial's
+         pixels, where an object of radius 1 gets the look of the tutorial's spheres of
+         radius 100; ``codermind convert`` writes the tutorial's 0.05)
 
      * - octaves
        - |int|
@@ -44,7 +45,8 @@ class MarbleTexture(TurbulenceBase):
 
      * - stripe_frequency
        - |float|
-       - Frequency :math:`s` of the stripes along :math:`x + y`, per world unit (Default: 0.05)
+       - Frequency :math:`s` of the stripes along :math:`x + y`, per world unit (Default: 5,
+         the tutorial's 0.05 per pixel at the scale of ``frequency``)
 
      * - gradient
        - |string|
@@ -66,7 +68,8 @@ class MarbleTexture(TurbulenceBase):
         m(\mathbf{p}) = \tfrac12 \sin\bigl(s\,(p_x + p_y) + T(\mathbf{p})\bigr) + \tfrac12,
         \qquad c = m\,\mathtt{color0} + (1 - m)\,\mathtt{color1}.
 
-    The defaults are the tutorial's constants; with the default colours the texture
+    The frequencies' defaults are the tutorial's constants scaled to units of 100 of its
+    pixels (``frequency``); with the default colours the texture
     returns :math:`m`. The stripe phase is clamped to :math:`\pm 2^{23}`, beyond which float32
     has no fractional bits (and the float32 sine leaves [-1, 1]), so :math:`m` stays in
     [0, 1] at any position. :monosp:`mean()` takes :math:`m` to average 1/2 over space.
@@ -89,7 +92,7 @@ class MarbleTexture(TurbulenceBase):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.stripe_frequency = positive_float(props, self.plugin, "stripe_frequency", 0.05)
+        self.stripe_frequency = positive_float(props, self.plugin, "stripe_frequency", 5.0)
 
     exposed_floats = ("frequency", "stripe_frequency")
 

@@ -26,8 +26,10 @@ class TurbulenceTexture(TurbulenceBase):
 
      * - frequency
        - |float|
-       - Base frequency :math:`f` per world unit (Default: 0.05, the tutorial's, whose
-         scenes are in pixels: a metre-scale scene needs about 100 times more)
+       - Base frequency :math:`f` per world unit (Default: 5, the tutorial's 0.05 per
+         pixel scaled to a scene in units 100 times the tutorial's pixels, where an
+         object of radius 1 gets the look of the tutorial's spheres of radius 100;
+         ``codermind convert`` writes the tutorial's 0.05)
 
      * - octaves
        - |int|

@@ -49,6 +49,12 @@ from .model import Model
 
 #: Length of every segment in the tutorial (t starts at 2000).
 T_MAX = 2000.0
+#: The tutorial's noise frequencies per pixel (its world unit): turbulence (and marble's
+#: turbulence), marble's stripes along x + y, and the bump's noise. The plugins' defaults
+#: are for scenes in larger units, so these are written out.
+TURBULENCE_FREQUENCY = 0.05
+STRIPE_FREQUENCY = 0.05
+BUMP_FREQUENCY = 0.1
 CUBEMAP_KEYS = {"up": "Up", "down": "Down", "right": "Right", "left": "Left",
                 "forward": "Forward", "backward": "Backward"}
 
@@ -314,6 +320,7 @@ def _material(w: _Writer, src: _Source, m, page: int, used: bool) -> None:
     if bump:
         w.open("bsdf", label, type="noisebump", id=f"material{m.index}")
         w.float("bumplevel", m.bumplevel, src.note(sec, "Bumplevel"))
+        w.float("frequency", BUMP_FREQUENCY, "the tutorial's, per pixel")
         w.open("bsdf", None, type="tutorial")
     else:
         w.open("bsdf", label, type="tutorial", id=f"material{m.index}")
@@ -324,6 +331,9 @@ def _material(w: _Writer, src: _Source, m, page: int, used: bool) -> None:
                name="diffuse")
         w.rgb("color0", m.diffuse, src.note(sec, "Diffuse"))
         w.rgb("color1", m.diffuse2, src.note(sec, "Diffuse2"))
+        w.float("frequency", TURBULENCE_FREQUENCY, "the tutorial's, per pixel")
+        if kind == "marble":
+            w.float("stripe_frequency", STRIPE_FREQUENCY, "the tutorial's, per pixel")
         w.close("texture")
     else:
         note = src.note(sec, "Diffuse")

@@ -61,7 +61,7 @@ def output_base(scene: Path, output: str | None) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from codermind.errors import CodermindError
+    from codermind.errors import CodermindError, raised_inside
     scene_path = Path(args.scene)
     if not scene_path.is_file():
         from codermind.bundled import bundled_scene
@@ -117,8 +117,11 @@ def run(args: argparse.Namespace) -> int:
             result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
                                    progress=Progress(spp, label=scene_path.name),
                                    should_stop=lambda: stop["requested"])
-    except RuntimeError as e:   # e.g. a plugin rejecting its input at render time
-        raise CodermindError(f"{scene_path}: rendering failed: {e}") from None
+    except (RuntimeError, ValueError) as e:   # e.g. a plugin rejecting its scene at render time
+        cause = raised_inside(e)
+        if not isinstance(cause, (RuntimeError, ValueError)):
+            raise cause from None                 # a defect, not the user's: its traceback
+        raise CodermindError(f"{scene_path}: rendering failed: {cause}") from None
     finally:
         signal.signal(signal.SIGINT, previous)
         dr.set_thread_count(threads)
