@@ -454,6 +454,75 @@ def is_refusal(result: dict, spec: dict) -> bool:
     return named and quoted
 
 
+def finite(result: dict) -> bool | None:
+    """Whether every film of a :func:`render` result is free of NaN and inf (None: refused)."""
+    import numpy as np
+    if "images" not in result:
+        return None
+    return all(bool(np.isfinite(image).all()) for image in result["images"])
+
+
+def compare(mi, spec: dict, assets: Path, k: int = 8, spp: int = 16,
+            significance: float = 1e-3) -> dict:
+    """``path`` (no Russian roulette) against ``tutorialpath`` clean (``exact_hits`` false)
+    on ``spec``: K renders a side with distinct seeds (path 0..K-1, tutorialpath K..2K-1)
+    and tests/zstat.py's ``t_test`` at ``significance`` per scene. Returns both
+    :func:`render` results and ``"test"``, the ZTest (None where a side was refused or
+    rendered a non-finite value)."""
+    import zstat
+    a = render(mi, spec, assets, "path", seeds=range(k), spp=spp)
+    b = render(mi, spec, assets, "tutorialpath", seeds=range(k, 2 * k), spp=spp)
+    test = None
+    if finite(a) and finite(b):
+        test = zstat.t_test(zstat.renders(a["images"]), zstat.renders(b["images"]),
+                            significance)
+    return {"path": a, "tutorialpath": b, "test": test}
+
+
+def misspellings(spec: dict, plugin: str | None = None) -> list[tuple[str, str, str]]:
+    """``(node path, parameter, misspelling)`` for every plain (non-plugin) parameter of
+    every node of our plugins (of type ``plugin`` only, if given) in ``spec``: the name with
+    one character dropped, where that is no name the node has."""
+    out = []
+    for path, node in nodes(spec["scene"]):
+        if node["type"] not in OURS or plugin is not None and node["type"] != plugin:
+            continue
+        for key, value in node.items():
+            if key == "type" or isinstance(value, dict) and "type" in value:
+                continue
+            for i in range(len(key)):
+                typo = key[:i] + key[i + 1:]
+                if typo and typo not in node and (path, key, typo) not in out:
+                    out.append((path, key, typo))
+    return out
+
+
+def misspelled(spec: dict, path: str, key: str, typo: str) -> dict:
+    """A copy of ``spec`` whose node ``path`` has parameter ``key``'s value also under the
+    misspelled name ``typo``."""
+    import copy
+    wrong = copy.deepcopy(spec)
+    node = dict(nodes(wrong["scene"]))[path]
+    node[typo] = node[key]
+    return wrong
+
+
+def refuses_typo(mi, spec: dict, assets: Path, path: str, key: str, typo: str) -> dict:
+    """Load ``spec`` with one misspelled parameter added: ``{"refused": bool, "message": one
+    line, "names_it": the message is one line naming the plugin type and the typo in
+    quotes}``."""
+    import re
+    plugin = dict(nodes(spec["scene"]))[path]["type"]
+    try:
+        load(mi, build(misspelled(spec, path, key, typo), mi, assets))
+    except (ValueError, RuntimeError) as e:
+        message = refusal(e)
+        return {"refused": True, "message": message, "names_it": "\n" not in message and bool(
+            re.search(rf"\b{plugin}\b", message)) and bool(
+            re.search(rf"""(['"]){re.escape(typo)}\1""", message))}
+    return {"refused": False, "message": "", "names_it": False}
+
+
 # -- a worker process: one JSON job per line on stdin, one JSON answer per line ---------------
 
 class Worker:
@@ -461,15 +530,15 @@ class Worker:
     died; :meth:`run` sends one job and returns the answer, or ``{"exit": status}`` if the
     process ended without answering (a crash)."""
 
-    def __init__(self, assets: Path, timeout: float = 600.0):
-        self.assets, self.timeout, self.process = Path(assets), timeout, None
+    def __init__(self, assets: Path, timeout: float = 600.0, env: dict | None = None):
+        self.assets, self.timeout, self.env, self.process = Path(assets), timeout, env, None
 
     def run(self, job: dict) -> dict:
         import subprocess
         if self.process is None or self.process.poll() is not None:
             self.process = subprocess.Popen(
                 [sys.executable, __file__, str(self.assets)], stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE, text=True)
+                stdout=subprocess.PIPE, text=True, env=self.env)
         self.process.stdin.write(json.dumps(job) + "\n")
         self.process.stdin.flush()
         line = self.process.stdout.readline()
@@ -487,27 +556,50 @@ class Worker:
 
 
 def _serve(assets: Path) -> None:
-    """The worker's loop. A job: ``{"variant", "spec", "integrator", "spp", "size",
-    "seeds"}``; the answer: ``{"error", "message"}`` or ``{"finite": bool, "shape": [...],
-    "mean": float}``."""
+    """The worker's loop. A job: ``{"kind", "variant", "spec", ...}``, one of
+
+    - ``render`` (``integrator``, ``spp``, ``size``, ``seeds``): ``{"error", "message"}``
+      or ``{"finite": bool, "mean": float}``;
+    - ``compare`` (``k``, ``spp``, ``significance``): :func:`compare`'s outcome,
+      ``{"path": ..., "tutorialpath": ... (as for render), "passed", "min_p", "alpha"}``;
+    - ``print``: ``{"ok": bool, "message"}`` for ``str(scene)`` of the scene with ``path``;
+    - ``typo`` (``path``, ``key``, ``typo``): :func:`refuses_typo`'s answer."""
     import os
     answers = os.fdopen(os.dup(1), "w")    # the answers' channel; Mitsuba's log goes to stderr
     os.dup2(2, 1)
     import mitsuba as mi
     import numpy as np
+
+    def summary(result: dict) -> dict:
+        if "images" in result:
+            return {"finite": finite(result), "mean": float(np.nanmean(result["images"]))}
+        return {k: v for k, v in result.items() if k != "raw"}
+
     for line in sys.stdin:
         job = json.loads(line)
         mi.set_variant(job["variant"])
         import codermind  # noqa: F401  (registers the plugins)
-        result = render(mi, job["spec"], assets, job["integrator"],
-                        seeds=job.get("seeds", [0]), spp=job.get("spp", 2),
-                        size=job.get("size"))
-        if "images" in result:
-            images = np.stack(result["images"])
-            result = {"finite": bool(np.isfinite(images).all()),
-                      "shape": list(images.shape), "mean": float(np.nanmean(images))}
+        kind, spec = job.get("kind", "render"), job["spec"]
+        if kind == "render":
+            result = summary(render(mi, spec, assets, job["integrator"],
+                                    seeds=job.get("seeds", [0]), spp=job.get("spp", 2),
+                                    size=job.get("size")))
+        elif kind == "compare":
+            out = compare(mi, spec, assets, job.get("k", 8), job.get("spp", 16),
+                          job.get("significance", 1e-3))
+            test = out["test"]
+            result = {"path": summary(out["path"]), "tutorialpath": summary(out["tutorialpath"]),
+                      "passed": None if test is None else test.passed,
+                      "min_p": None if test is None else test.min_p,
+                      "alpha": None if test is None else test.alpha}
+        elif kind == "print":
+            try:
+                text = str(load(mi, build(spec, mi, assets)))
+                result = {"ok": text.startswith("Scene["), "message": ""}
+            except Exception as e:      # noqa: BLE001 (reported, with its kind)
+                result = {"ok": False, "message": f"{type(e).__name__}: {refusal(e)}"}
         else:
-            result.pop("raw", None)
+            result = refuses_typo(mi, spec, assets, job["path"], job["key"], job["typo"])
         print(json.dumps(result), file=answers, flush=True)
 
 

@@ -10,7 +10,6 @@ examples are reported as drawn (no shrinking: each example loads and renders a s
 from __future__ import annotations
 
 import copy
-import re
 
 import numpy as np
 import pytest
@@ -181,24 +180,10 @@ def test_tutorialpath_parameters_round_trip_through_traverse(llvm, assets):
 
 # -- unknown parameters, print ----------------------------------------------------------------
 
-def misspellings(picks: list[tuple[str, dict]]) -> st.SearchStrategy:
-    """``(node path, misspelled key, value)`` for a plain parameter of one of the nodes
-    ``picks``: the name with one character dropped."""
-    choices = [(path, key, value) for path, node in picks
-               for key, value in node.items()
-               if key != "type" and not (isinstance(value, dict) and "type" in value)]
-    return st.sampled_from(choices).flatmap(lambda c: st.integers(0, len(c[1]) - 1).map(
-        lambda i: (c[0], c[1][:i] + c[1][i + 1:], c[2])))
-
-
 UNKNOWN_PARAMETER_PLUGINS = sorted(rs.OURS - {"tutorialpath"})
 
 
-@pytest.mark.parametrize("plugin", [
-    pytest.param(p, marks=pytest.mark.xfail(
-        strict=True, reason="defect: noisebump accepts misspelled parameters, fixed in "
-                            "main by the lead")) if p == "noisebump" else p
-    for p in UNKNOWN_PARAMETER_PLUGINS])
+@pytest.mark.parametrize("plugin", UNKNOWN_PARAMETER_PLUGINS)
 @examples(ci=2, long=30, shrink=False)
 @given(data=st.data())
 def test_unknown_parameter_is_refused(llvm, assets, plugin, data):
@@ -211,22 +196,13 @@ def test_unknown_parameter_is_refused(llvm, assets, plugin, data):
         rs.load(mi, rs.build(spec, mi, assets))
     except (ValueError, RuntimeError):
         assume(False)                              # refused as it is: nothing to misspell
-    picks = [c for c in rs.nodes(spec["scene"]) if c[1]["type"] == plugin]
-    path, key, value = data.draw(misspellings(picks), label="misspelling")
-    assume(key and key not in dict(picks)[path])
-    wrong = copy.deepcopy(spec)
-    node = dict(rs.nodes(wrong["scene"]))[path]
-    node[key] = value
-    with pytest.raises((ValueError, RuntimeError)) as error:
-        rs.load(mi, rs.build(wrong, mi, assets))
-    message = rs.refusal(error.value)
-    assert "\n" not in message
-    assert re.search(rf"\b{plugin}\b", message), message
-    assert re.search(rf"""(['"]){re.escape(key)}\1""", message), message
+    path, key, typo = data.draw(st.sampled_from(rs.misspellings(spec, plugin)),
+                                label="misspelling")
+    answer = rs.refuses_typo(mi, spec, assets, path, key, typo)
+    assert answer["refused"], f"{path}: '{typo}' for '{key}' was accepted"
+    assert answer["names_it"], answer["message"]
 
 
-@pytest.mark.xfail(strict=True, reason="defect: print(scene) fails for any scene with a "
-                   "blob, being fixed by another helper")
 @examples(ci=3, long=100, shrink=False)
 @given(spec=rs.scenes())
 def test_print_scene_works(llvm, assets, spec):

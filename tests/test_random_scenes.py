@@ -17,7 +17,6 @@ import pytest
 from hypothesis import assume, given, seed
 
 import random_scenes as rs
-import zstat
 from conftest import PROFILE, examples
 
 SPP = 2                  #: samples per pixel of the render properties
@@ -103,8 +102,6 @@ def test_random_scene_film_is_finite(llvm, assets, spec):
     assert not bad, f"non-finite pixels from {bad}"
 
 
-@pytest.mark.xfail(strict=True, reason="defect: tutorialpath segfaults in scalar_rgb "
-                   "(pdf_emitter_direction with no emitter at the hit), fixed in main by the lead")
 @same_scenes
 @examples(ci=2, long=50, shrink=False)
 @given(spec=rs.scenes())
@@ -141,11 +138,10 @@ def test_clean_tutorialpath_has_the_expectation_of_path(llvm, assets, spec):
     see them)."""
     mi = llvm
     assume(not rs.has_analytic_blob(spec))
-    a = rs.render(mi, spec, assets, "path", seeds=range(K), spp=K_SPP)
-    b = rs.render(mi, spec, assets, "tutorialpath", seeds=range(K, 2 * K), spp=K_SPP)
+    out = rs.compare(mi, spec, assets, K, K_SPP, ALPHA)
+    a, b = out["path"], out["tutorialpath"]
     if "error" in a or "error" in b:     # refused: the same refusal on both sides
         assert a.get("message") == b.get("message")
         return
-    assert all(np.isfinite(i).all() for i in a["images"] + b["images"])
-    result = zstat.t_test(zstat.renders(a["images"]), zstat.renders(b["images"]), ALPHA)
-    assert result.passed, str(result)
+    assert rs.finite(a) and rs.finite(b)
+    assert out["test"].passed, str(out["test"])
