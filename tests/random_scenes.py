@@ -419,6 +419,15 @@ def load(mi, d: dict):
     return scene
 
 
+def load_file(mi, path, **params):
+    """``mi.load_file`` with the step Python emitters need after loading (codermind.scene);
+    ``params`` replace the file's ``<default>`` values."""
+    from codermind.scene import attach_emitters
+    scene = mi.load_file(str(path), **{k: str(v) for k, v in params.items()})
+    attach_emitters(scene)
+    return scene
+
+
 def refusal(error: BaseException) -> str:
     """The one-line message of an error (codermind.errors.one_line)."""
     from codermind.errors import one_line
@@ -562,8 +571,11 @@ def _serve(assets: Path) -> None:
       or ``{"finite": bool, "mean": float}``;
     - ``compare`` (``k``, ``spp``, ``significance``): :func:`compare`'s outcome,
       ``{"path": ..., "tutorialpath": ... (as for render), "passed", "min_p", "alpha"}``;
-    - ``print``: ``{"ok": bool, "message"}`` for ``str(scene)`` of the scene with ``path``;
-    - ``typo`` (``path``, ``key``, ``typo``): :func:`refuses_typo`'s answer."""
+    - ``print``: ``{"loaded": False, "message"}`` (refused) or ``{"loaded": True, "ok":
+      bool, "message"}`` for ``str(scene)`` of the scene with ``path``;
+    - ``typo`` (``path``, ``key``, ``typo``): :func:`refuses_typo`'s answer;
+    - ``file`` (``file``, ``params``, ``spp``; ``spec`` unused): a scene file rendered with
+      its own integrator, ``{"finite", "mean", "printed"}``."""
     import os
     answers = os.fdopen(os.dup(1), "w")    # the answers' channel; Mitsuba's log goes to stderr
     os.dup2(2, 1)
@@ -594,10 +606,24 @@ def _serve(assets: Path) -> None:
                       "alpha": None if test is None else test.alpha}
         elif kind == "print":
             try:
-                text = str(load(mi, build(spec, mi, assets)))
-                result = {"ok": text.startswith("Scene["), "message": ""}
+                scene = load(mi, build(spec, mi, assets))
+            except (ValueError, RuntimeError) as e:     # a refusal (judged elsewhere)
+                result = {"loaded": False, "message": refusal(e)}
+            else:
+                try:
+                    result = {"loaded": True, "ok": str(scene).startswith("Scene["),
+                              "message": ""}
+                except Exception as e:  # noqa: BLE001 (reported, with its kind)
+                    result = {"loaded": True, "ok": False,
+                              "message": f"{type(e).__name__}: {refusal(e)}"}
+        elif kind == "file":
+            try:
+                scene = load_file(mi, job["file"], **job.get("params", {}))
+                image = np.array(mi.render(scene, spp=job.get("spp", 2), seed=0))
+                result = {"finite": bool(np.isfinite(image).all()), "mean": float(image.mean()),
+                          "printed": str(scene).startswith("Scene[")}
             except Exception as e:      # noqa: BLE001 (reported, with its kind)
-                result = {"ok": False, "message": f"{type(e).__name__}: {refusal(e)}"}
+                result = {"error": type(e).__name__, "message": refusal(e)}
         else:
             result = refuses_typo(mi, spec, assets, job["path"], job["key"], job["typo"])
         print(json.dumps(result), file=answers, flush=True)
