@@ -444,8 +444,23 @@ def render(mi, spec: dict, assets: Path, name: str, seeds=(0,), spp: int = 4,
         images = [np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
                   for seed in seeds]
     except Exception as e:    # a refusal: judged by the caller (is_refusal)
-        return {"error": type(e).__name__, "message": refusal(e), "raw": str(e)}
+        return {"error": type(e).__name__, "message": refusal(e), "raw": str(e),
+                **cause(e)}
     return {"images": images}
+
+
+def cause(error: BaseException) -> dict:
+    """The innermost exception behind ``error`` (a Dr.Jit loop re-raises what its body
+    raised as "encountered an exception (see above)"), where there is one."""
+    inner = error
+    while inner.__cause__ is not None:
+        inner = inner.__cause__
+    if inner is error:
+        return {}
+    import traceback
+    where = traceback.extract_tb(inner.__traceback__)[-1] if inner.__traceback__ else None
+    return {"cause": f"{type(inner).__name__}: {refusal(inner)}"
+                     + (f" ({Path(where.filename).name}:{where.lineno})" if where else "")}
 
 
 def is_refusal(result: dict, spec: dict) -> bool:
