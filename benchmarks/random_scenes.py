@@ -30,7 +30,6 @@ import argparse
 import collections
 import datetime
 import json
-import math
 import os
 import platform
 import random
@@ -142,7 +141,8 @@ def refusal_kind(message: str) -> str:
 
 def binomial_tail(k: int, n: int, p: float) -> float:
     """P(X >= k) for X ~ Binomial(n, p)."""
-    return sum(math.comb(n, i) * p ** i * (1 - p) ** (n - i) for i in range(k, n + 1))
+    from scipy.stats import binom
+    return float(binom.sf(k - 1, n, p))
 
 
 def summarize(records: list[dict]) -> dict:
@@ -170,7 +170,8 @@ def summarize(records: list[dict]) -> dict:
     return {"renders": renders, "crashes": crashes, "not_refusals": not_refusals,
             "nonfinite": nonfinite, "refusals": refusals, "tests": len(tests),
             "failed": failed, "prints": prints,
-            "loaded": sum(bool(r["print"].get("loaded")) for r in records), "typos": len(typos), "typo_bad": typo_bad,
+            "loaded": sum(bool(r["print"].get("loaded")) for r in records),
+            "typos": len(typos), "typo_bad": typo_bad,
             "types": collections.Counter(t for r in records for t in r["types"])}
 
 
@@ -264,9 +265,17 @@ def main(argv=None) -> int:
     parser.add_argument("--json", default="/tmp/random-scenes.json")
     parser.add_argument("--write-results", action="store_true",
                         help="write docs/results/random-scenes.md")
+    parser.add_argument("--from-json", action="store_true",
+                        help="only write the page from the records in --json, of a run that "
+                             "took --wall seconds with --command")
+    parser.add_argument("--wall", type=float, default=0.0)
+    parser.add_argument("--command", default="")
     args = parser.parse_args(argv)
     command = "python benchmarks/random_scenes.py " + " ".join(
         a for a in (argv if argv is not None else sys.argv[1:]))
+    if args.from_json:
+        records = json.loads(Path(args.json).read_text())
+        return write(records, args.command or command, args.wall, args.write_results)
     specs = draw_specs(args.scenes, args.seed)
     records: list[dict] = [None] * len(specs)
     with tempfile.TemporaryDirectory() as tmp:
@@ -300,10 +309,13 @@ def main(argv=None) -> int:
         for w in workers:
             w.close()
         wall = time.perf_counter() - t0
-    summary = summarize(records)
-    text = page(summary, records, command, wall)
+    return write(records, command, wall, args.write_results)
+
+
+def write(records: list[dict], command: str, wall: float, to_docs: bool) -> int:
+    text = page(summarize(records), records, command, wall)
     print(text)
-    if args.write_results:
+    if to_docs:
         (ROOT / "docs" / "results" / "random-scenes.md").write_text(text, encoding="utf-8")
     return 0
 

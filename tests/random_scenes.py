@@ -28,7 +28,8 @@ page 1, 2 or 4, ``blinnphong``), possibly inside ``noisebump``, reflectances pos
 ``perlin``, ``turbulence`` or ``marble`` texture; one to three lights (an ``area`` rectangle
 or sphere, ``point``, ``tutorialpoint``, and at most one environment: ``constant``,
 ``envmap`` or ``cubemap``). A few values users get wrong are drawn too (a ``blinnphong``
-whose albedos sum above 1), so that refusals happen; everything else is valid.
+whose albedos sum above 1, or whose specular albedo exceeds 1), so that refusals happen;
+everything else is valid.
 """
 
 from __future__ import annotations

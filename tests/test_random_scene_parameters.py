@@ -111,8 +111,7 @@ def deterministic(mi, scene) -> np.ndarray:
 #: Parameters whose own value written back moves the render by float rounding: reported
 #: defects, each pinned by its own xfail test below (the bit-for-bit checks skip them here).
 REPORTED = {("Blob", "centers"), ("Blob", "radius"), ("Blob", "max_error"),
-            ("NoiseBumpBSDF", "to_world"), ("NoiseBumpBSDF", "bumplevel"),
-            ("NoiseBumpBSDF", "frequency")}
+            ("NoiseBumpBSDF", "to_world"), ("NoiseBumpBSDF", "bumplevel")}
 
 
 def reported(key: str, plugin) -> bool:

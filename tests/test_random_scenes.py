@@ -169,7 +169,8 @@ def _blob_scene(mi, size: float, tessellate: bool) -> dict:
                    "exact normals skip every source within |p - c|^2 <= 0.001 world units "
                    "(blobmesh/field.py inverse_square_gradient, Blob's analytic shading), "
                    "the tutorial's pixel-scale rule, so a blob of radius below ~0.03 has zero "
-                   "(NaN once normalized) normals and renders black")
+                   "(NaN once normalized) normals: it renders black, or NaN under path "
+                   "(scene 773 of docs/results/random-scenes.md)")
 @pytest.mark.parametrize("tessellate", [True, False])
 def test_blob_renders_the_same_at_any_world_size(llvm, tessellate):
     """Evidence: the blob's own render at radius 1 against the same scene scaled by 1/100
