@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, Phase, settings
 
 # Hypothesis (tests/test_properties.py, tests/test_parser_fuzz.py): CI runs the "ci" profile,
 # small and derandomized (the same examples every run, no deadline flakiness); a long run is
@@ -24,10 +24,15 @@ settings.register_profile("long", max_examples=100_000, derandomize=False, **_CO
 settings.load_profile(PROFILE)
 
 
-def examples(ci: int, long: int):
+def examples(ci: int, long: int, shrink: bool = True):
     """Per-test example counts (``@examples(ci=..., long=...)``) for tests whose examples
-    are expensive (a Mitsuba plugin is built and its kernels compiled per example)."""
-    return settings(max_examples=long if PROFILE == "long" else ci)
+    are expensive (a Mitsuba plugin is built and its kernels compiled per example).
+    ``shrink=False``: a failing example is reported as drawn, not shrunk (for examples
+    that take seconds each, such as the random scenes of tests/random_scenes.py)."""
+    if shrink:
+        return settings(max_examples=long if PROFILE == "long" else ci)
+    return settings(max_examples=long if PROFILE == "long" else ci,
+                    phases=[Phase.explicit, Phase.reuse, Phase.generate])
 
 
 ROOT = Path(__file__).resolve().parents[1]

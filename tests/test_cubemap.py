@@ -442,3 +442,24 @@ def test_an_odd_value_is_quoted_on_the_error_line(llvm, tutorial_dir):
         llvm.load_dict(params)
     last = str(e.value).strip().splitlines()[-1]
     assert "'mode' must be 'light' or 'background', got 'sky\\nlight'" in last, last
+
+
+@pytest.mark.parametrize("variant", ["llvm", "scalar"])
+def test_a_non_finite_direction_looks_up_nothing(request, variant):
+    """A direction with a NaN or inf component (a NaN shading normal upstream) gets no
+    radiance and pdf 0 in both variants; in scalar_rgb its texel index was int(NaN), a
+    ValueError that stopped the render (found by benchmarks/random_scenes.py)."""
+    mi = request.getfixturevalue(variant)
+    import drjit as dr
+    emitter = mi.load_dict({"type": "cubemap", **synthetic_faces(mi)})
+    jit = dr.is_jit_v(mi.Float)
+    for d in ([float("nan"), 0.0, 0.0], [float("inf"), 1.0, 0.0], [0.0, float("nan"), 1.0],
+              [float("-inf"), float("inf"), 0.0]):
+        si = dr.zeros(mi.SurfaceInteraction3f) if jit else mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*d)
+        it = dr.zeros(mi.Interaction3f) if jit else mi.Interaction3f()
+        ds = dr.zeros(mi.DirectionSample3f) if jit else mi.DirectionSample3f()
+        ds.d = mi.Vector3f(*d)
+        for value in (emitter.eval(si), emitter.eval_direction(it, ds),
+                      mi.Color3f(emitter.pdf_direction(it, ds))):
+            assert np.array(value, dtype=np.float64).ravel().tolist() == [0.0, 0.0, 0.0], d

@@ -18,6 +18,14 @@ FLOAT32_MAX = 3.4028234663852886e38
 FLOAT32_MIN_NORMAL = 1.1754943508222875e-38
 
 
+def float32(value: float) -> float:
+    """``value`` rounded to float32 (what ``mi.traverse`` hands out for a parameter), as a
+    Python float; beyond the float32 range, +-inf. A plugin that keeps a parameter in
+    this form computes the same from the scene's value as from the one written back."""
+    with np.errstate(over="ignore"):
+        return float(np.float32(value))
+
+
 def number(props, plugin: str, name: str, default: float | None = None) -> float:
     """A number (int or float, not bool); ``default`` when absent (None: required)."""
     if name not in props:

@@ -8,7 +8,7 @@ import numpy as np
 
 from codermind.emitters._records import emitter_ptr, zero_direction_sample, zero_position_sample
 from codermind.exposed import exposed, scalar, scalar_matrix, take_float
-from codermind.params import FLOAT32_MAX, flag, read_float
+from codermind.params import FLOAT32_MAX, flag, float32, read_float
 
 #: Face parameters in the tutorial's loading order, with the axis each one covers.
 FACES = ("up", "down", "right", "left", "forward", "backward")
@@ -149,8 +149,11 @@ class CubeMap(mi.Emitter):
                    "sampling_weight: light samples that pick it are wasted")
         self.srgb = flag(props, "cubemap", "srgb", False)
         self.exposed = flag(props, "cubemap", "exposed", False)
-        self.exposure = read_float(props, "cubemap", "exposure", 1.0, lo=0.0, open_lo=True)
-        self.scale = read_float(props, "cubemap", "scale", 1.0)
+        # kept as float32, as mi.traverse hands them out (their own values written back then
+        # change nothing; _decode divides in float32 either way)
+        self.exposure = float32(read_float(props, "cubemap", "exposure", 1.0, lo=0.0,
+                                           open_lo=True))
+        self.scale = float32(read_float(props, "cubemap", "scale", 1.0))
         if not abs(self.scale / self.exposure) <= FLOAT32_MAX:
             raise ValueError(f"cubemap: 'scale' / 'exposure' = {self.scale / self.exposure:g} "
                              f"is beyond float32")
@@ -189,10 +192,14 @@ class CubeMap(mi.Emitter):
             c = np.power(c, 2.2) if np_mode else dr.power(c, 2.2)
         if self.exposed:
             c = -np.log(1.001 - c) if np_mode else -dr.log(1.001 - c)
-        return c * (self.scale / self.exposure)
+        if np_mode:
+            return c * (float(self.scale) / self.exposure)
+        return c * (self.scale / mi.Float(self.exposure))
 
     def lookup(self, d: mi.Vector3f, active: mi.Bool = True) -> mi.Color3f:
-        """Radiance arriving from local direction ``d`` (need not be normalised)."""
+        """Radiance arriving from local direction ``d`` (need not be normalised); none from
+        a direction that is not finite."""
+        finite, d = _finite(d)
         face, u, v = face_uv(d)
         w, h = int(self.res.x), int(self.res.y)
         x, y = dr.abs(u) * w, dr.abs(v) * h
@@ -205,7 +212,7 @@ class CubeMap(mi.Emitter):
         c00, c10 = self._texel(row0 + i0, active), self._texel(row0 + i1, active)
         c01, c11 = self._texel(row1 + i0, active), self._texel(row1 + i1, active)
         c = dr.lerp(dr.lerp(c00, c10, fx), dr.lerp(c01, c11, fx), fy)
-        return self._decode(c)
+        return dr.select(finite, self._decode(c), 0.0)
 
     def _texel(self, index: mi.Int32, active: mi.Bool) -> mi.Color3f:
         if dr.is_jit_v(mi.Float):
@@ -281,13 +288,14 @@ class CubeMap(mi.Emitter):
         return d / length, pdf
 
     def _pdf_local(self, d: mi.Vector3f, active: mi.Bool) -> mi.Float:
+        finite, d = _finite(d)
         face, u, v = face_uv(d)
         w, h = int(self.res.x), int(self.res.y)
         i = dr.clip(mi.Int32(dr.abs(u) * w), 0, w - 1)
         j = dr.clip(mi.Int32(dr.abs(v) * h), 0, h - 1)
         prob = self.distr.pdf(mi.Point2u(mi.UInt32(i), mi.UInt32(face * h + j)), active)
         major = dr.max(dr.abs(d)) * dr.rcp(dr.norm(d))
-        return prob * (0.25 * w * h) * dr.rcp(major * major * major)
+        return dr.select(finite, prob * (0.25 * w * h) * dr.rcp(major * major * major), 0.0)
 
     def sample_direction(self, it: mi.Interaction3f, sample: mi.Point2f,
                          active: mi.Bool = True) -> tuple[mi.DirectionSample3f, mi.Spectrum]:
@@ -424,6 +432,13 @@ class CubeMap(mi.Emitter):
 def _no_wavelengths():
     """The (empty) wavelength record of RGB and monochromatic variants."""
     return dr.zeros(type(mi.Ray3f().wavelengths))
+
+
+def _finite(d: mi.Vector3f) -> tuple[mi.Bool, mi.Vector3f]:
+    """Whether ``d`` is finite, and ``d`` with +z in its place where it is not (a NaN would
+    become a texel index: a ValueError in scalar variants, any texel in JIT ones)."""
+    finite = dr.isfinite(d.x) & dr.isfinite(d.y) & dr.isfinite(d.z)
+    return finite, dr.select(finite, d, mi.Vector3f(0.0, 0.0, 1.0))
 
 
 def face_uv(d: mi.Vector3f) -> tuple[mi.Int32, mi.Float, mi.Float]:

@@ -7,8 +7,8 @@ import mitsuba as mi
 import numpy as np
 
 from codermind.exposed import exposed, scalar, scalar_matrix, take_float
-from codermind.params import (FLOAT32_MAX, number, read_clip, read_pixel_offset, to_world_matrix,
-                              x_fov)
+from codermind.params import (FLOAT32_MAX, float32, number, read_clip, read_pixel_offset,
+                              to_world_matrix, x_fov)
 from codermind.sensors._film import FilmMap, check_rigid, origin_of
 
 
@@ -159,6 +159,11 @@ class ConicCamera(mi.Sensor):
             default = "" if "focus_distance" in props else " (it defaults to 'far_clip')"
             raise ValueError(f"conic: 'focus_distance' must be finite (in float32) when "
                              f"'aperture' > 0, got {self.focus_distance:g}{default}")
+        # kept as float32, as mi.traverse hands them out (its own values written back then
+        # change nothing)
+        self.x_fov, self.aperture, self.focus_distance, self.near_clip, self.far_clip = map(
+            float32, (self.x_fov, self.aperture, self.focus_distance, self.near_clip,
+                      self.far_clip))
         # Rays are aimed on a scale where neither the aperture nor the focus point overflows.
         self.lens_scale = max(self.aperture, self.focus_distance) if self.aperture > 0 else 1.0
         self.film_map = FilmMap(film, read_pixel_offset(props, "conic"), "conic")

@@ -23,9 +23,8 @@ class SolidTexture(mi.Texture):
         super().__init__(props)
         self.identity = "to_world" not in props
         if not self.identity:
-            to_world = props.get("to_world")            # a double-precision transform
-            self.to_world = mi.ScalarTransform4f(mi.ScalarMatrix4f(to_world.matrix))
-            self.to_local = mi.Transform4f(mi.ScalarMatrix4f(to_world.inverse().matrix))
+            # a double-precision transform, kept as float32 as mi.traverse hands it out
+            self.to_world, self.to_local = placement(props.get("to_world").matrix)
         self.mixes_colors = mixes_colors
         if mixes_colors:
             # Unbounded: the tutorial's colours are plain multipliers and may exceed 1.
@@ -121,16 +120,24 @@ class SolidTexture(mi.Texture):
         if hasattr(self, "octaves") and (not keys or "octaves" in keys):
             take_int(self, self.plugin, "octaves", 1, 64)
         if not keys or "to_world" in keys:
-            matrix = scalar_matrix(exposed(self, "to_world"))
             self.identity = False
-            self.to_world = mi.ScalarTransform4f(matrix)
-            self.to_local = mi.Transform4f(self.to_world.inverse().matrix)
+            self.to_world, self.to_local = placement(scalar_matrix(exposed(self, "to_world")))
 
     def to_string(self) -> str:
         colors = (f",\n  color0 = {self.color0},\n  color1 = {self.color1}"
                   if self.mixes_colors else "")
         placement = "" if self.identity else f",\n  to_world = {self.to_world.matrix}"
         return f"{type(self).__name__}[\n  {self.describe()}{placement}{colors}\n]"
+
+
+def placement(matrix) -> tuple[mi.ScalarTransform4f, mi.Transform4f]:
+    """``to_world`` as float32 and ``to_local``, its inverse taken in double precision
+    from that float32 matrix: the same pair whether the matrix comes from the scene (a
+    double-precision transform) or back from ``mi.traverse`` (its float32 copy), so writing
+    a texture's own ``to_world`` back changes no bit of its lookups."""
+    m = mi.ScalarMatrix4f(matrix)
+    inverse = mi.ScalarTransform4d(mi.ScalarMatrix4d(m)).inverse().matrix
+    return mi.ScalarTransform4f(m), mi.Transform4f(mi.ScalarMatrix4f(inverse))
 
 
 def _transposed(to_local: mi.Transform4f, g: mi.Vector3f) -> mi.Vector3f:
