@@ -108,16 +108,6 @@ def deterministic(mi, scene) -> np.ndarray:
     return np.array(mi.render(scene, spp=1, seed=0))
 
 
-#: Parameters whose own value written back moves the render by float rounding: reported
-#: defects, each pinned by its own xfail test below (the bit-for-bit checks skip them here).
-REPORTED = {("Blob", "centers"), ("Blob", "radius"), ("Blob", "max_error"),
-            ("NoiseBumpBSDF", "to_world"), ("NoiseBumpBSDF", "bumplevel")}
-
-
-def reported(key: str, plugin) -> bool:
-    return (type(plugin).__name__, key.rsplit(".", 1)[1]) in REPORTED
-
-
 @examples(ci=2, long=100, shrink=False)
 @given(spec=rs.scenes())
 def test_our_parameters_round_trip_through_traverse(llvm, assets, spec):
@@ -140,13 +130,11 @@ def test_our_parameters_round_trip_through_traverse(llvm, assets, spec):
 
     before = image()
     for key, plugin in ours(params):
-        bitwise = not reported(key, plugin)
         value = fresh(mi, params[key])
         params[key] = fresh(mi, value)
         params.set_dirty(key)
         params.update()
-        assert not bitwise or np.array_equal(image(), before, equal_nan=True), \
-            f"{key}: own value"
+        assert np.array_equal(image(), before, equal_nan=True), f"{key}: own value"
         old = state(plugin)
         params[key] = perturbed(mi, key, value)
         params.update()
@@ -154,8 +142,7 @@ def test_our_parameters_round_trip_through_traverse(llvm, assets, spec):
             not np.array_equal(image(), before, equal_nan=True), f"{key}: nothing changed"
         params[key] = fresh(mi, value)
         params.update()
-        assert not bitwise or np.array_equal(image(), before, equal_nan=True), \
-            f"{key}: old value back"
+        assert np.array_equal(image(), before, equal_nan=True), f"{key}: old value back"
         before = image()
 
 
@@ -285,21 +272,8 @@ def _own_value_scene(case: str) -> dict:
     return {"scene": {**scene, "sensor": camera}, "max_depth": 3}
 
 
-REPORTED_OWN_VALUE = {
-    "noisebump": "noisebump keeps the scene's float64 bumplevel and to_world (its inverse "
-                 "taken in double) but hands mi.traverse float32 copies (to_world: the "
-                 "float32 inverse of its float32 to_local), so its own values written back "
-                 "change the bump in the last bits",
-    "blob": "blob builds its mesh from the scene's float64 centres, radius and max_error but "
-            "hands mi.traverse float32 copies, so writing them back re-tessellates a "
-            "slightly different blob"}
-
-
-@pytest.mark.parametrize("case", [
-    pytest.param(c, marks=pytest.mark.xfail(strict=True, raises=AssertionError,
-                                            reason=f"defect (reported): {REPORTED_OWN_VALUE[c]}"))
-    if c in REPORTED_OWN_VALUE else c
-    for c in ("materials", "tutorial_lens", "tutorialortho", "noisebump", "blob")])
+@pytest.mark.parametrize("case", ["materials", "tutorial_lens", "tutorialortho", "noisebump",
+                                  "blob"])
 def test_parameter_written_back_leaves_the_render_bit_for_bit(llvm, assets, case):
     """Evidence: the plugins' own render before and after (the round-trip property above on
     fixed scenes whose parameters float32 does not hold exactly): each parameter of our

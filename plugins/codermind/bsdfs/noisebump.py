@@ -5,6 +5,7 @@ import mitsuba as mi
 
 from ..exposed import exposed, kernel_value, scalar_matrix, take_float
 from ..textures import _noise
+from ..textures._solid import placement
 from ..params import flag, read_float
 
 
@@ -117,8 +118,7 @@ class NoiseBumpBSDF(mi.BSDF):
         self.gradient = _noise.read_gradient(props, name)
         self.identity = "to_world" not in props
         if not self.identity:
-            inverse = props.get("to_world").inverse().matrix
-            self.to_local = mi.Transform4f(mi.ScalarMatrix4f(inverse))
+            self.to_world, self.to_local = placement(props.get("to_world").matrix)
         self.m_components = [self.nested.flags(i) for i in range(self.nested.component_count())]
         self.m_flags = self.nested.flags()
 
@@ -130,7 +130,8 @@ class NoiseBumpBSDF(mi.BSDF):
         bump = _noise.rotated_noise(x, y, z, self.gradient)
         frame = si.sh_frame
         wi = frame.to_world(si.wi)
-        b = self.bumplevel
+        # in float32 from the start, as after a write-back through mi.traverse
+        b = self.bumplevel if dr.is_array_v(self.bumplevel) else mi.Float(self.bumplevel)
         # the tutorial flips its UNBUMPED normal towards the ray: that decides the side
         # (on a blob mesh it can disagree with the geometric normal near creases and necks)
         sign_b = dr.select(dr.dot(frame.n, wi) < 0, -b, b)
@@ -229,7 +230,7 @@ class NoiseBumpBSDF(mi.BSDF):
         callback.put("frequency", exposed(self, "frequency"), mi.ParamFlags.Differentiable)
         nd = mi.ParamFlags.NonDifferentiable
         callback.put("to_world", exposed(self, "to_world", lambda: mi.Transform4f(
-            mi.ScalarMatrix4f(1.0) if self.identity else self.to_local.inverse().matrix)), nd)
+            mi.ScalarMatrix4f(1.0) if self.identity else self.to_world.matrix)), nd)
 
     def parameters_changed(self, keys: list[str]) -> None:
         if not keys or "bumplevel" in keys:
@@ -237,9 +238,8 @@ class NoiseBumpBSDF(mi.BSDF):
         if not keys or "frequency" in keys:
             take_float(self, self.plugin, "frequency", lo=0.0, open_lo=True)
         if not keys or "to_world" in keys:
-            to_world = mi.ScalarTransform4f(scalar_matrix(exposed(self, "to_world")))
             self.identity = False
-            self.to_local = mi.Transform4f(to_world.inverse().matrix)
+            self.to_world, self.to_local = placement(scalar_matrix(exposed(self, "to_world")))
 
     def to_string(self) -> str:
         return (f"NoiseBumpBSDF[\n  bumplevel = {self.bumplevel},\n"
