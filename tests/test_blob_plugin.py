@@ -115,6 +115,91 @@ def test_bad_centres_are_named(llvm):
         mi.load_dict(blob_dict(mi, [[0, 0, 0]], radiuss=2.0))
 
 
+def _one_line(text: str, start: str) -> str:
+    """The one line of ``text`` (a Mitsuba error, which wraps the plugin's traceback) that
+    holds the ValueError starting with ``start``."""
+    lines = [ln for ln in str(text).splitlines() if start in ln]
+    assert len(lines) == 1, text
+    return lines[0][lines[0].index(start):]
+
+
+def test_runaway_max_error_is_refused_promptly(llvm):
+    """max_error 1e-7 on the page-4 blob (the mesher alone, stopped by its 5 M cap, takes
+    131 s, 6.3 M triangles and 3.4 GB there, and misses max_error) is refused before
+    meshing, within 3 s, in one line that names 'max_error', the cost and the limit. The
+    max_error it names for a smaller limit loads with about that many triangles. The same
+    refusal through mi.traverse, which leaves the blob as it was."""
+    import re
+    import time
+    mi = llvm
+    t0 = time.perf_counter()
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict(blob_dict(mi, PAGE4, max_error=1e-7))
+    seconds = time.perf_counter() - t0
+    line = _one_line(error.value, "blob: 'max_error'")
+    print(f"{seconds:.2f} s: {line}")           # shown with pytest -s
+    assert seconds < 3.0
+    assert re.search(r"about \S+e\+1\d triangles, .* TB of memory", line)
+    assert "'max_triangles' 2e+06" in line
+    # the max_error it names for a limit of 20 000 loads, with about that many triangles
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict(blob_dict(mi, PAGE4, max_error=1e-7, max_triangles=20000))
+    line = _one_line(error.value, "blob: 'max_error'")
+    fits = float(re.search(r"raise max_error to (\S+) or more", line).group(1))
+    scene = mi.load_dict({"type": "scene", "blob": blob_dict(mi, PAGE4, max_error=fits,
+                                                             max_triangles=20000)})
+    (blob,) = scene.shapes()
+    faces = blob.face_count()
+    assert 20000 / 1.25 < faces < 20000 * 1.25
+
+    params = mi.traverse(scene)
+    params["blob.max_error"] = mi.Float(1e-7)
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match=r"^blob: 'max_error' 1e-07 would need [^\n]*$"):
+        params.update()
+    assert time.perf_counter() - t0 < 3.0
+    assert blob.face_count() == faces and blob.max_error == fits
+
+
+def test_max_triangles_lets_a_larger_mesh_through(llvm):
+    """A mesh the estimate puts at about 40 000 triangles is refused under max_triangles
+    20 000 and built under 80 000 (with that many triangles, within the estimate's
+    accuracy); max_triangles itself must be a number >= 1."""
+    from codermind.blobmesh import estimate_cost
+    mi = llvm
+    centers = PAGE4 + np.array([[0.0, 30.0, 0.0], [0, 0, 0], [0, 0, 0]])
+    e = 0.15 * estimate_cost(centers, R, "tutorial", 0.15).triangles / 40000
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict(blob_dict(mi, centers, max_error=e, max_triangles=20000))
+    assert "'max_triangles' 2e+04" in _one_line(error.value, "blob: 'max_error'")
+    blob = mi.load_dict(blob_dict(mi, centers, max_error=e, max_triangles=80000))
+    assert 40000 / 1.25 < blob.face_count() < 40000 * 1.25
+    assert blob.max_triangles == 80000
+    for bad in (0.5, float("nan"), -1.0):
+        with pytest.raises(RuntimeError) as error:
+            mi.load_dict(blob_dict(mi, centers, max_triangles=bad))
+        _one_line(error.value, "blob: 'max_triangles' must be finite in float32 and >= 1")
+
+
+@pytest.mark.parametrize("key,value", [
+    ("radius", float("nan")), ("radius", float("inf")), ("radius", 0.0), ("radius", -1.0),
+    ("max_error", float("nan")), ("max_error", float("inf")), ("max_error", -0.1),
+    ("max_error", 0.0)])
+def test_absurd_values_are_refused_in_one_line(llvm, key, value):
+    """Non-finite or non-positive radius and max_error: one line naming the parameter, when
+    loading and through mi.traverse."""
+    mi = llvm
+    message = f"blob: '{key}' must be finite in float32 and > 0, got {value:g}"
+    with pytest.raises(RuntimeError) as error:
+        mi.load_dict(blob_dict(mi, [[0, 0, 0]], **{key: value}))
+    assert _one_line(error.value, f"blob: '{key}'") == message
+    scene = mi.load_dict({"type": "scene", "blob": blob_dict(mi, [[0, 0, 0]], max_error=2.0)})
+    params = mi.traverse(scene)
+    params[f"blob.{key}"] = mi.Float(value)
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        params.update()
+
+
 def exact_normal(p, centers, kind):
     """Outward unit normal of the true surface at p (zone field: one-sided at creases)."""
     if kind == "exact":
@@ -239,6 +324,29 @@ def test_renders_in_scalar_rgb(scalar):
     assert img.shape == (12, 16, 3) and np.isfinite(img).all()
     centre, corner = img[6, 8].mean(), img[0, 0].mean()
     assert centre < corner  # the diffuse blob (albedo 0.5) is darker than the sky
+
+
+@pytest.mark.parametrize("variant", ["llvm", "scalar"])
+def test_prints_like_a_mitsuba_shape(request, variant):
+    """``print(scene)`` and ``str(blob)`` work (a Python shape without ``to_string`` makes
+    nanobind fail: "get_trampoline(...Blob::to_string()): lookup failed") and say what the
+    blob is: its own parameters and the mesh's size, as Mitsuba's shapes print theirs."""
+    mi = request.getfixturevalue(variant)
+    shift = mi.ScalarTransform4f().translate([1, 2, 3])
+    d = blob_dict(mi, [[0, 0, 0], [100, 0, 0]], max_error=2.0, normals="field",
+                  to_world=shift)
+    blob = mi.load_dict(d)
+    text = str(blob)
+    print(text)     # shown with pytest -s
+    for part in ("Blob[", "centers = 2", f"radius = {R:g}", 'field = "tutorial"',
+                 'normals = "field"', "tessellate = true", "max_error = 2",
+                 f"vertex_count = {blob.vertex_count()}", f"face_count = {blob.face_count()}",
+                 "[0, 0, 0, 1]]", "bsdf = SmoothDiffuse["):
+        assert part in text
+    assert blob.face_count() > 100
+    scene = mi.load_dict({"type": "scene", "blob": d})
+    # nested, indented as a child, named by its key in the scene
+    assert text.replace('id = ""', 'id = "blob"').replace("\n", "\n    ") in str(scene)
 
 
 def _aimed_rays(mi, targets, rng, back, centre=np.zeros(3)):

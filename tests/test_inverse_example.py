@@ -1,20 +1,16 @@
-"""The inverse-rendering example (docs/examples/inverse_blob.py, issue 15) runs, on its
+"""The inverse-rendering example (docs/examples/inverse_blob.py) runs, on its
 ``--quick`` settings (32x32 pixels, 3 views, 30 iterations instead of the default 150, the
 rates held until iteration 17 instead of 15, from the same start as the full run), and
-meets the issue's criteria: the loss falls at least 100x, the three blob centres come
+meets its criteria: the loss falls at least 100x, the three blob centres come
 within 1% of the radius (largest coordinate error / R), the marble colour within 0.01
 (largest channel error).
 
 Evidence: [fact] the truth is known (the target image is rendered from it), so the
 centres and the colour are compared with the truth, not with another render of ours.
 
-Measured (docs/examples/README.md, 2026-12-02): the quick run reached 35600x, 0.0014 R and
-a colour error of 0.0003 (another run 34100x, 0.0021 R, 0.0004; with other adjoint seeds,
-``--grad-seed 1000``, 26340x, 0.0034 R, 0.0004): the margin is 3-7x on the centres. About
-35 s CPU. What made 30 iterations enough: the colour alone for the first 4 iterations
-(the centres' gradients pointed partly the wrong way while it was far off), Adam with
-beta_1 0.6 and beta_2 0.9, and the rates held before they decay (the 40-iteration
-schedule before reached 29.7x, 0.116 R, 0.062)."""
+Measured (docs/examples/README.md): the quick run reached 93600x, 0.0028 R and a colour
+error of 0.0003 (with other adjoint seeds, ``--grad-seed 1000``: 143800x, 0.0043 R,
+0.0004): the margin is 2.3-3.6x on the centres. About 70 s CPU."""
 
 from __future__ import annotations
 

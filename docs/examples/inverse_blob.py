@@ -1,4 +1,4 @@
-"""Inverse rendering with the plugins (issue 15): recover the three centres of a ``blob``
+"""Inverse rendering with the plugins: recover the three centres of a ``blob``
 (the tutorial's zone field, as on page 4) and the ``color0`` of its ``marble`` texture from
 a target image, with Mitsuba's ``prb_projective`` (silhouette gradients included) and Adam.
 
@@ -20,8 +20,11 @@ short memory, so the steps do not shrink with the gradients as the loss falls) a
 rate until iteration ``hold``, then both rates fall exponentially to ``final_lr`` times
 their start at the last iteration.
 
-Each iteration that moves the centres re-tessellates the blob; the vertex positions carry
-the derivative of the surface by the implicit function theorem.
+Each iteration that moves the centres re-tessellates the blob; the vertex positions and
+normals carry the derivative of the surface (the blob's default ``exact`` normals: with
+``flat`` ones the facet edges' sweep over the image is not differentiated). The views'
+losses are summed and differentiated in one backward pass, which consumes the graph from
+the centres to the mesh.
 """
 
 from __future__ import annotations
@@ -48,7 +51,7 @@ QUICK_HOLD = 17           # ... holds the rates 2 iterations longer than the ful
 EYES = ([0, 0.5, 5], [5, 0.8, 0.5], [0.5, 5, 1.5])
 
 
-def scene_dict(mi, centers: np.ndarray, color, size: int = 48, normals: str = "flat",
+def scene_dict(mi, centers: np.ndarray, color, size: int = 48, normals: str = "exact",
                integrator: str = "prb_projective", max_error: float = R / 500,
                views: int = 3) -> dict:
     integ = {"type": integrator, "max_depth": 2}
@@ -81,7 +84,7 @@ def scene_dict(mi, centers: np.ndarray, color, size: int = 48, normals: str = "f
 
 
 def optimise(iterations: int = 150, size: int = 32, spp: int = 8, lr_centers: float = 0.03,
-             lr_color: float = 0.1, final_lr: float = 0.05, normals: str = "flat",
+             lr_color: float = 0.1, final_lr: float = 0.05, normals: str = "exact",
              integrator: str = "prb_projective", views: int = 3, colour_first: int = 4,
              hold: int = 15, beta_1: float = 0.6, beta_2: float = 0.9, grad_seed: int = 0,
              log=print) -> dict:
@@ -137,14 +140,15 @@ def _optimise(mi, dr, iterations, size, spp, lr_centers, lr_color, final_lr, nor
     decay = final_lr ** (1.0 / max(iterations - 1 - hold, 1))
     error = math.inf
     for it in range(iterations):
+        # one backward pass for all views: a pass consumes the graph from the centres to
+        # the mesh's buffers, so a second one would reach only the colour
         loss = 0
         for v in range(views):
             image = mi.render(scene, params, sensor=v, spp=spp, seed=seed + v,
                               seed_grad=grad_seed + views * (1 + it) + v)
-            view_loss = dr.mean(dr.square(image - targets[v]), axis=None) / views
-            dr.backward(view_loss)
-            loss += float(np.ravel(np.array(view_loss))[0])
-        losses.append(loss)
+            loss = loss + dr.mean(dr.square(image - targets[v]), axis=None) / views
+        dr.backward(loss)
+        losses.append(float(np.ravel(np.array(loss))[0]))
         centers = np.array(params[keys[0]], dtype=np.float64).reshape(-1, 3)
         error = float(np.abs(centers - TRUE_CENTERS).max() / R)   # of the rendered state
         color = np.ravel(np.array(params[keys[1]])).tolist()
@@ -192,7 +196,7 @@ def main() -> None:
     p.add_argument("--beta-2", type=float, default=0.9)
     p.add_argument("--grad-seed", type=int, default=0,
                    help="offset of the adjoint passes' seeds (the primal seeds stay)")
-    p.add_argument("--normals", default="flat", choices=["exact", "field", "flat"])
+    p.add_argument("--normals", default="exact", choices=["exact", "field", "flat"])
     p.add_argument("--integrator", default="prb_projective")
     p.add_argument("--views", type=int, default=3, choices=[1, 2, 3])
     a = p.parse_args()

@@ -8,13 +8,16 @@ here; the harness's blob sweep, the benchmarks and the tests call it directly.
 
 Modules: :mod:`.field` (the two fields), :mod:`.roots` (root finding onto the surface and
 the creases), :mod:`.geom` (mesh geometry, sliver clean-up), :mod:`.creases` (cutting the
-mesh along the zone field's creases), :mod:`.mesh` (the pipeline, :func:`build_blob_mesh`).
+mesh along the zone field's creases), :mod:`.mesh` (the pipeline, :func:`build_blob_mesh`),
+:mod:`.cost` (its cost, estimated before meshing: :func:`estimate_cost`).
 """
 
 from __future__ import annotations
 
+from .cost import Cost, estimate_cost
 from .field import FIELDS
 from .geom import min_angles_deg
 from .mesh import NORMALS, BlobMesh, BlobMeshError, build_blob_mesh
 
-__all__ = ["FIELDS", "NORMALS", "BlobMesh", "BlobMeshError", "build_blob_mesh", "min_angles_deg"]
+__all__ = ["Cost", "FIELDS", "NORMALS", "BlobMesh", "BlobMeshError", "build_blob_mesh",
+           "estimate_cost", "min_angles_deg"]

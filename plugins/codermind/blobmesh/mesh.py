@@ -418,6 +418,16 @@ def initial_cell_size(radius: float, max_error: float) -> float:
     return min(math.sqrt(max_error * radius / INITIAL_C), radius / 6.0)
 
 
+def first_cell_size(field: BlobField, max_error: float) -> float:
+    """The marching-cubes cell size of the first pass: :func:`initial_cell_size`, but large
+    enough to keep the grid below MAX_GRID_POINTS (refinement does the rest)."""
+    c = field.centers
+    extent = float((c.max(axis=0) - c.min(axis=0)).max()) \
+        + 2.0 * math.sqrt(field.support_x()) * field.radius
+    return max(initial_cell_size(field.radius, max_error),
+               extent / MAX_GRID_POINTS ** (1.0 / 3.0))
+
+
 def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: float | None = None,
                     *, normals: str = "exact", cell_size: float | None = None,
                     max_passes: int = 40, max_triangles: int = 5_000_000,
@@ -437,14 +447,7 @@ def build_blob_mesh(centers, radius: float, field: str = "tutorial", max_error: 
     centers, radius, max_error = _validate(centers, radius, field, max_error, normals, cell_size)
     fld = BlobField(centers, radius, field)
     t_start = time.perf_counter()
-    if cell_size is not None:
-        h = cell_size
-    else:
-        h = initial_cell_size(radius, max_error)
-        # keep the marching-cubes grid below MAX_GRID_POINTS; refinement does the rest
-        extent = float((centers.max(axis=0) - centers.min(axis=0)).max()) \
-            + 2.0 * math.sqrt(fld.support_x()) * radius
-        h = max(h, extent / MAX_GRID_POINTS ** (1.0 / 3.0))
+    h = cell_size if cell_size is not None else first_cell_size(fld, max_error)
     v, f, info = tessellate(fld, h)
     err, per_face = measure_error(fld, v, f, h)
     passes = 0

@@ -10,16 +10,21 @@ import numpy as np
 
 from ..exposed import exposed, scalar
 from ..masks import logical_not as _not
-from ..blobmesh import BlobMeshError, build_blob_mesh
+from ..blobmesh import BlobMeshError, build_blob_mesh, estimate_cost
+from ..blobmesh.cost import ACCURACY
 from ..blobmesh.field import INTERCEPT, SLOPE
 
-from ..params import loose_number
+from ..params import check_float, loose_number
 
 # Blob._zone's closed form of the zone tables beyond the outermost zone
 assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 * k + 1) / 10)
            < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
 
 _CENTER = re.compile(r"center(\d+)$")
+
+#: ``max_triangles``' default: about 1 GB of the mesher's memory and up to a minute (see
+#: codermind.blobmesh.cost)
+MAX_TRIANGLES = 2_000_000
 
 # the strict walk's bound increments of zones 0..8: the float32 differences of the zone bounds
 # 0.2, 0.3, ..., 1.0 (spec 2.10: they sum to exactly 1 in a lone core)
@@ -63,6 +68,17 @@ def blob(props: mi.Properties) -> mi.Mesh:
          mesh is refined until the measured error is below it; the achieved error is
          logged at Info level (Warn if it could not be reached).
 
+     * - max_triangles
+       - |int|
+       - The largest mesh the blob may build, in triangles (Default: 2 000 000: about 1 GB
+         of the mesher's memory and up to a minute). Before meshing, the triangle count that
+         ``max_error`` needs is estimated from the centres, the radius, ``to_world`` and
+         ``max_error`` (from the surface's area and curvature, in a few tens of ms; measured
+         within 2x of the real count, and 0.86-1.13 of it above 12 000 triangles); above
+         this limit the blob is refused with a one-line error that gives the estimated
+         triangles, memory and time and the ``max_error`` that would fit. Raise it to allow
+         a larger mesh.
+
      * - normals
        - |string|
        - Vertex normals: ``exact`` (default; gradient of :math:`\sum R^2/d^2`, what the
@@ -96,11 +112,41 @@ def blob(props: mi.Properties) -> mi.Mesh:
     ``mi.traverse`` exposes ``centers`` (a flat ``mi.Float`` of 3N numbers, object
     space) and ``radius``, both differentiable, and ``max_error``; changing any of them
     re-tessellates the mesh in ``parameters_changed`` (the number of centres may change
-    too). With gradients enabled on the centres or the radius, the vertex positions carry
-    their derivatives by the implicit function theorem (vertex normals do not; on the
-    ``tutorial`` field's creases, the zone spheres where the field has a kink, a vertex
-    also stays on its crease). The mesh's own buffers
-    (``vertex_positions``, ...) are exposed as for any mesh.
+    too), after the same checks as at loading (an absurd value or a mesh above
+    ``max_triangles`` is refused in one line, and the blob stays as it was). The mesh's
+    own buffers (``vertex_positions``, ...) are exposed as for any mesh.
+
+    With gradients enabled on the centres or the radius, the vertex positions and normals
+    carry their derivatives: each vertex stays on the surface to first order (implicit
+    function theorem; on the ``tutorial`` field's creases, the zone spheres where the
+    field has a kink, also on its crease) and moves along it with the sources, and its
+    normal is the ``normals`` option's formula at the moved vertex. ``prb`` then
+    differentiates the shading and ``prb_projective`` also the silhouette: a one-source
+    blob's derivatives with respect to its centre and radius are those of the built-in
+    ``sphere`` (within 0.04 % without silhouette; the silhouette term within 0.3 % of the
+    closed form). Not differentiated:
+
+    * ``normals`` = ``flat``: the shading normal jumps at every facet edge, and the edges
+      sweep over the image as the surface moves; no integrator differentiates that
+      shading discontinuity. The vertices then move along the normal only, so that the
+      facets turn with the surface, but what the sweep contributes is missing: a
+      one-source blob moved towards the camera gives 0.043 where the sphere and finite
+      differences give 0.069 (tests/test_gradients.py's framing: 0.144 against 0.147),
+      and the polygonal contour slides, a few per cent of the silhouette term (-2.9 % to
+      +1.2 %). Use ``exact`` or ``field`` normals for gradients.
+    * ``normals`` = ``field`` on the ``tutorial`` field: the normal jumps across the
+      creases, which the mesh spreads over about a triangle; where creases sweep over the
+      image, their part is differentiated only approximately (along one direction of
+      two centres: AD -0.038 against differences of -0.045 and -0.048, themselves 6 %
+      apart; along another, 3.144 against 3.142 and 3.143).
+    * shadow edges of point lights (Mitsuba differentiates no shadow edge of a delta
+      light), and everything with ``tessellate`` = ``false``.
+
+    A reverse-mode pass through ``mi.render`` consumes the graph from ``centers`` and
+    ``radius`` to the mesh's buffers (Dr.Jit's ``ADFlag.ClearEdges``): update the
+    parameters (``params.update()``, as an optimiser loop does every step) before the
+    next differentiated render, or pass ``flags=dr.ADFlag.ClearVertices`` to
+    ``dr.backward`` to keep it.
 
     The surface is tessellated by marching cubes and every vertex is moved onto the true
     isosurface; triangles where the measured error exceeds ``max_error`` are split by
@@ -143,21 +189,52 @@ def blob(props: mi.Properties) -> mi.Mesh:
     if not tessellate and field != "tutorial":
         raise ValueError("blob: 'tessellate' = false needs field = 'tutorial' (the analytic "
                          "intersection solves the zone field's quadratics)")
-    max_error = loose_number(props, "blob", "max_error")
-    if max_error is None:
-        max_error = scale * radius / 500.0 if math.isfinite(radius) and radius > 0 else 1.0
-    return Blob(props, centers, radius, field, normals, matrix, max_error, tessellate)
+    max_error = loose_number(props, "blob", "max_error", scale * radius / 500.0)
+    max_triangles = loose_number(props, "blob", "max_triangles", MAX_TRIANGLES)
+    _check_limits(radius, max_error, max_triangles)
+    return Blob(props, centers, radius, field, normals, matrix, max_error, tessellate,
+                max_triangles)
+
+
+def _check_limits(radius: float, max_error: float, max_triangles: float) -> None:
+    """One-line errors for radius, max_error and max_triangles out of range."""
+    check_float("blob", "radius", radius, lo=0.0, open_lo=True)
+    check_float("blob", "max_error", max_error, lo=0.0, open_lo=True)
+    check_float("blob", "max_triangles", max_triangles, lo=1.0)
+
+
+def _refuse_runaway(centers: np.ndarray, radius: float, field: str, scale: float,
+                    max_error: float, max_triangles: float) -> None:
+    """A one-line ValueError, before any meshing, where the mesh for ``max_error`` (world
+    units) would have more than ``max_triangles`` triangles by the estimate of
+    :func:`codermind.blobmesh.estimate_cost` (within ``ACCURACY`` of the real count)."""
+    try:
+        cost = estimate_cost(centers, radius, field, max_error / scale)
+    except BlobMeshError as e:
+        raise ValueError(f"blob: {e}") from None
+    if cost.triangles > max_triangles:
+        fits = max_error * cost.triangles / max_triangles   # the count goes as 1/max_error
+        step = 10.0 ** (math.floor(math.log10(fits)) - 2)   # rounded up to 3 digits
+        fits = math.ceil(fits / step) * step
+        raise ValueError(
+            f"blob: 'max_error' {max_error:.3g} would need {cost.describe()} (estimated, "
+            f"within {ACCURACY:g}x), more than 'max_triangles' {max_triangles:.3g}: raise "
+            f"max_error to {fits:.3g} or more, or raise max_triangles")
 
 
 def _mesh_arrays(centers: np.ndarray, radius: float, field: str, normals: str,
-                 matrix: np.ndarray, max_error: float
+                 matrix: np.ndarray, max_error: float, max_triangles: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World-space vertices, faces and vertex normals (possibly empty) of the blob."""
     linear = matrix[:3, :3]
     scale = float(np.linalg.svd(linear, compute_uv=False)[0])
+    _refuse_runaway(centers, radius, field, scale, max_error, max_triangles)
     t0 = time.perf_counter()
     try:
+        # an accepted mesh has at most ACCURACY times the limit: the mesher's own cap there
+        # stops only a mesh the estimate got wrong
         mesh = build_blob_mesh(centers, radius, field, max_error / scale, normals=normals,
+                               max_triangles=int(ACCURACY * max_triangles),
                                log=lambda msg: mi.Log(mi.LogLevel.Debug, msg))
     except BlobMeshError as e:
         raise ValueError(f"blob: {e}") from None
@@ -191,8 +268,10 @@ class Blob(mi.Mesh):
     the scene, notified after the shape, rebuilds its acceleration structure)."""
 
     def __init__(self, props: mi.Properties, centers: np.ndarray, radius: float, field: str,
-                 normals: str, matrix: np.ndarray, max_error: float, tessellate: bool = True):
+                 normals: str, matrix: np.ndarray, max_error: float, tessellate: bool = True,
+                 max_triangles: float = MAX_TRIANGLES):
         self.tessellated = tessellate
+        self.max_triangles = max_triangles
         v, f, n = self._arrays(centers, radius, field, normals, matrix, max_error)
         super().__init__(props.id() or "blob", len(v), len(f), props,
                          has_vertex_normals=normals != "flat")
@@ -202,7 +281,8 @@ class Blob(mi.Mesh):
 
     def _arrays(self, centers, radius, field, normals, matrix, max_error):
         if self.tessellated:
-            return _mesh_arrays(centers, radius, field, normals, matrix, max_error)
+            return _mesh_arrays(centers, radius, field, normals, matrix, max_error,
+                                self.max_triangles)
         # no mesh: one degenerate triangle (Embree never reports it; a mesh without faces
         # cannot be intersected at all in 3.9.1)
         mi.Log(mi.LogLevel.Info, "blob: tessellate = false, only the tutorialpath "
@@ -211,23 +291,29 @@ class Blob(mi.Mesh):
         n = np.tile([0.0, 0.0, 1.0], (3, 1)) if normals != "flat" else np.zeros((0, 3))
         return np.tile(c, (3, 1)), np.array([[0, 1, 2]]), n
 
-    def _attached(self, v: np.ndarray):
-        """World vertices ``v``, with the derivatives with respect to the centres and the
-        radius attached when either has gradients enabled (else ``v`` itself).
+    def _attached(self, v: np.ndarray, n: np.ndarray) -> tuple:
+        """World vertices ``v`` and vertex normals ``n``, with their derivatives with respect
+        to the centres and the radius attached when either has gradients enabled (else
+        ``v`` and ``n`` themselves). The values stay those of ``v`` and ``n``.
 
-        A vertex p lies on F(p; c, R) = 1; moved along the field's gradient to stay on it
-        (implicit function theorem), dp = -(dF/dc . dc + dF/dR dR) grad_p F / |grad_p F|^2,
-        with dF/dc_i = -g_i (g_i: source i's term of grad_p F) and
-        dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a crease of the zone field (a
-        zone sphere x_i = 10/k, where F has a kink) also keeps x_i = 10/k: dp is then the
-        least-norm motion meeting both constraints. In world space dp is mapped by
-        to_world's linear part. Vertex normals are not differentiated (use ``normals`` = ``flat`` for
-        gradients through the shading normal)."""
+        A vertex p lies on F(p; c, R) = 1 and stays on it to first order (implicit function
+        theorem): grad_p F . dp = -(dF/dc . dc + dF/dR dR), with dF/dc_i = -g_i (g_i:
+        source i's term of grad_p F) and dF/dR = sum_i f'(x_i) (-2 x_i / R). A vertex on a
+        crease of the zone field (a zone sphere x_i = 10/k, where F has a kink) also keeps
+        x_i = 10/k. dp is the least-norm motion meeting the constraint(s) plus a tangential
+        part t projected onto their null space: with smooth normals the sources' own
+        motion weighted by their shares f_i (a one-source blob moves and scales as a
+        sphere), with ``flat`` normals none. In world space dp is mapped by to_world's
+        linear part. The vertex normal is the ``normals`` option's formula evaluated at
+        p + dp with c + dc (:meth:`_normal_of`), so that it turns with the surface under
+        the vertex; a normal kept fixed is wrong by the surface's turn over the vertex's
+        motion relative to it (a sphere moved by d: -d_tangential / R at a vertex moved
+        along its normal)."""
         if not dr.is_diff_v(mi.Float):
-            return v
+            return v, n
         c_ad, r_ad = exposed(self, "centers"), exposed(self, "radius")
         if not (dr.grad_enabled(c_ad) or dr.grad_enabled(r_ad)):
-            return v
+            return v, n
         from ..blobmesh.field import BlobField
         linear, shift = self.matrix[:3, :3], self.matrix[:3, 3]
         p = (v - shift) @ np.linalg.inv(linear).T          # object space
@@ -241,13 +327,16 @@ class Blob(mi.Mesh):
         s2 = mi.Float(0.0)                                 # the crease's x_i constraint
         crease = np.full(len(p), -1)
         normal2 = np.zeros_like(p)                         # grad_p x_i of that crease
+        dcs, shares = [], []
         for i, c in enumerate(field.centers):
             x = field.sqdist(p, i)
+            shares.append(field.f(x))
             df = field.df(x)                               # one-sided on a crease
             g = (2.0 * field.inv_r2) * df[:, None] * (p - c)
             grad += g
             dfdr += df * (-2.0 * x / field.radius)
             dc_i = [dr.gather(mi.Float, dc, 3 * i + axis) for axis in range(3)]
+            dcs.append(dc_i)
             s1 += sum(f32(g[:, axis]) * dc_i[axis] for axis in range(3))
             if field.kind == "tutorial":
                 # on a zone sphere x_i = 10/k the field has a kink; the vertex stays on the
@@ -263,7 +352,7 @@ class Blob(mi.Mesh):
                               for axis in range(3))
                     s2 += rhs + f32(np.where(at, 2.0 * x / field.radius, 0.0)) * dr_
         s1 -= f32(dfdr) * dr_
-        # dp = u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
+        # u1 s1 + u2 s2: the least-norm motion meeting the constraint(s)
         g2 = np.maximum((grad * grad).sum(1), 1e-300)
         u1, u2 = grad / g2[:, None], np.zeros_like(p)
         on = crease >= 0
@@ -278,9 +367,56 @@ class Blob(mi.Mesh):
             w2 = a * inv12[:, None] + b * inv22[:, None]
             idx = np.flatnonzero(on)[ok]
             u1[idx], u2[idx] = w1[ok], w2[ok]
-        u1, u2 = u1 @ linear.T, u2 @ linear.T
-        moved = [f32(v[:, k]) + f32(u1[:, k]) * s1 + f32(u2[:, k]) * s2 for k in range(3)]
-        return dr.ravel(mi.Point3f(*moved))
+        # the tangential part t, projected onto the null space of the constraints. Smooth
+        # normals: the sources' own motion (moved, and scaled about their centres) weighted
+        # by their shares f_i of F = 1. It changes no derivative of the smooth shading, but
+        # the mesh's silhouette keeps its shape instead of sliding over the contour, which
+        # moves its coverage error (a few per cent of the boundary term). Flat: none, so
+        # that the facets turn with the surface (a moved sphere's by -d_tangential / R),
+        # the part of the shading's change a facet can carry
+        if self.normals == "flat":
+            t = [mi.Float(0.0)] * 3
+        else:
+            w = np.array(shares) / np.maximum(np.sum(shares, axis=0), 1e-300)
+            t = [sum(f32(w[i]) * dcs[i][k] for i in range(len(w))) +
+                 f32(sum(w[i] * (p[:, k] - c[k]) for i, c in enumerate(field.centers))
+                     / field.radius) * dr_ for k in range(3)]
+        r1 = s1 - sum(f32(grad[:, k]) * t[k] for k in range(3))
+        r2 = s2 - sum(f32(normal2[:, k]) * t[k] for k in range(3))
+        dp = [t[k] + f32(u1[:, k]) * r1 + f32(u2[:, k]) * r2 for k in range(3)]  # object space
+        moved = [f32(v[:, k]) + sum(float(linear[k, j]) * dp[j] for j in range(3))
+                 for k in range(3)]
+        v_ad = dr.ravel(mi.Point3f(*moved))
+        if not len(n):                                     # 'flat': Mitsuba's facet normals
+            return v_ad, n
+        # the offsets p - c_i in float64, their motion dp - dc_i carried by AD
+        rel = [mi.Vector3f(*[f32(p[:, k] - c[k]) + dp[k] - dcs[i][k] for k in range(3)])
+               for i, c in enumerate(field.centers)]
+        normal = self._normal_of(field, p, rel)
+        normal = normal - dr.detach(normal)                # 0, carrying dn's gradients
+        return v_ad, dr.ravel(mi.Vector3f(*[f32(n[:, k]) + normal[k] for k in range(3)]))
+
+    def _normal_of(self, field, p: np.ndarray, rel: list) -> mi.Vector3f:
+        """The ``normals`` option's unit world normal at the vertices ``p`` (object space)
+        from their offsets ``rel`` = p - c_i from the centres (Dr.Jit arrays, derivatives
+        included): ``exact`` (and ``field`` on the exact field) the direction of
+        sum x_i^-2 (p - c_i), ``field`` on the zone field that of -sum f'_i (p - c_i) with
+        each source's slope f'_i in p's zone (on a crease the mean of both sides, as the
+        mesher's normal), which stays while the vertex stays in its zone and on its crease.
+        Neither depends on R but through p (a positive common factor)."""
+        g = mi.Vector3f(0.0)
+        for i, q in enumerate(rel):
+            x = field.sqdist(p, i)
+            if self.normals == "exact" or field.kind == "exact":
+                # the mesher skips a source within 0.001 units of the point, as the tutorial
+                keep = mi.Float(np.asarray(x * field.radius ** 2 > 0.001, dtype=np.float32))
+                g += keep / dr.square(dr.squared_norm(q) * field.inv_r2) * q
+            else:
+                slope = field.df(x, mean_at_bounds=True)
+                g += mi.Float(np.ascontiguousarray(-slope, dtype=np.float32)) * q
+        inv_t = np.linalg.inv(self.matrix[:3, :3]).T       # normals: the inverse transpose
+        to_world = mi.ScalarMatrix3f([[float(a) for a in row] for row in inv_t])
+        return dr.normalize(to_world @ g)
 
     # -- hits on the exact surface (called by the tutorialpath integrator) ----------------
     #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
@@ -738,6 +874,26 @@ class Blob(mi.Mesh):
             buffer("vertex_normals", n, np.float32)
         params.update()
 
+    def to_string(self) -> str:
+        # Mitsuba's own shapes print like this; a Python shape without it makes print(scene)
+        # fail (nanobind finds no trampoline)
+        def indent(value) -> str:
+            return str(value).replace("\n", "\n  ")
+
+        m = self.matrix
+        rows = ",\n              ".join("[" + ", ".join(f"{x:.6g}" for x in row) + "]"
+                                        for row in m)
+        return (f"Blob[\n  id = \"{self.id()}\",\n  centers = {len(self.centers)},\n"
+                f"  radius = {self.radius:.6g},\n  field = \"{self.field}\",\n"
+                f"  normals = \"{self.normals}\",\n"
+                f"  tessellate = {'true' if self.tessellated else 'false'},\n"
+                f"  max_error = {self.max_error:.6g},\n"
+                f"  max_triangles = {self.max_triangles:.6g},\n"
+                f"  to_world = [{rows}],\n"
+                f"  vertex_count = {self.vertex_count()},\n"
+                f"  face_count = {self.face_count()},\n"
+                f"  bsdf = {indent(self.bsdf())}\n]")
+
     def traverse(self, callback: mi.TraversalCallback) -> None:
         super().traverse(callback)
         nd = mi.ParamFlags.NonDifferentiable
@@ -758,10 +914,13 @@ class Blob(mi.Mesh):
                                  f"{flat.size}")
             radius = scalar(exposed(self, "radius"))
             max_error = scalar(exposed(self, "max_error"))
+            _check_limits(radius, max_error, self.max_triangles)
             v, f, n = self._arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
                                    self.matrix, max_error)
             self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
-            self._set_buffers(self._attached(v) if self.tessellated else v, f, n)
+            if self.tessellated:
+                v, n = self._attached(v, n)
+            self._set_buffers(v, f, n)
         rest = [k for k in keys if k not in own]
         if rest or not keys:
             super().parameters_changed(rest)
