@@ -89,6 +89,7 @@ def table(measured, spp: int, seeds: int, command: str, seconds: float) -> str:
     skipped = [r for r, _, _, _ in measured if r.skip]
     params = {(r.owner, r.param) for r, _, _, _ in measured}
     setups = {r.setup.id for r, _, _, _ in measured}
+    idle = {r.setup.plugin for r, _, _, _ in measured} - {o for o, _ in params}
     lines = [
         "# Gradients: AD against finite differences",
         "",
@@ -117,11 +118,30 @@ def table(measured, spp: int, seeds: int, command: str, seconds: float) -> str:
         "",
     ]
     if failed:
-        lines.append("Failing: " + "; ".join(f"`{r.id}` ({v})" for r, v in failed) + ".")
+        lines.append("Failing:")
+        lines.append("")
+        for (r, m, _, _), (_, v) in zip(measured, verdicts):
+            if v.startswith(("pass", "skipped")):
+                continue
+            extra = "" if m is None else (
+                f": AD {_g(m.ad)}, FD {_g(m.fd)}, tolerance {m.tolerance:.3g}; the largest "
+                f"paired pixel difference is {m.worst:.3g}, {m.worst / m.spread:.0f} times "
+                f"their sd")
+            lines.append(f"- `{r.id}`: {v}{extra}.")
         lines.append("")
     if skipped:
-        lines.append("Skipped (the derivative cannot be right there; the plugin's docstring "
-                     "says so): " + "; ".join(f"`{r.id}`: {r.skip}" for r in skipped) + ".")
+        lines.append("Skipped, where the derivative cannot be right (the plugin's docstring "
+                     "says so); they are measured all the same:")
+        lines.append("")
+        reasons: dict = {}
+        for r in skipped:
+            reasons.setdefault(r.skip, []).append(r.id)
+        for reason, ids in reasons.items():
+            lines.append(f"- {', '.join(f'`{i}`' for i in ids)}: {reason}.")
+        lines.append("")
+    if idle:
+        lines.append(f"{', '.join(f'`{n}`' for n in sorted(idle))} expose no differentiable "
+                     "parameter; their option sets are rows of the plugins they show.")
         lines.append("")
     lines += [
         "AD is forward mode; *backward* is reverse mode at the first seed minus forward "
