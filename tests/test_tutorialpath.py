@@ -561,3 +561,29 @@ def test_exact_hits_see_chords_between_mesh_and_surface(llvm):
               "nested": {"type": "conductor"}}
     diff = _against_builtin_sphere(llvm, bumped)[True]
     assert (diff > 1e-2).mean() < 2e-3, f"{(diff > 1e-2).sum()} pixels differ"
+
+
+def test_traverse_writes_max_depth_and_min_distance(llvm):
+    """``mi.traverse`` hands out values it can write back (a Python int it could not:
+    'set_property(): Target property type (int) is not a nanobind type'), and the next
+    render uses them: a glass sphere under a white sky is dark at max_depth 2 (the camera
+    ray and one refraction) and white at 6, as path at the same depths."""
+    mi = llvm
+    T = mi.ScalarTransform4f
+    scene = mi.load_dict({
+        "type": "scene", "integrator": {"type": "tutorialpath", "max_depth": 2},
+        "sensor": {"type": "perspective", "to_world": T().look_at([0, 0, 4], [0, 0, 0], [0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 8, "height": 8}},
+        "ball": {"type": "sphere", "bsdf": {"type": "dielectric"}}, "sky": {"type": "constant"}})
+    shallow = mi.render(scene, spp=4, seed=1).numpy().mean()
+    params = mi.traverse(scene)
+    params["integrator.max_depth"] = 6
+    params["integrator.min_distance"] = 1e-3
+    params.update()
+    assert scene.integrator().max_depth == 6
+    assert scene.integrator().min_distance == pytest.approx(1e-3, rel=1e-7)   # float32
+    deep = mi.render(scene, spp=4, seed=1).numpy().mean()
+    assert shallow < 0.6 and deep == pytest.approx(1.0, abs=1e-3)
+    params["integrator.max_depth"] = -2
+    with pytest.raises(ValueError, match="tutorialpath: 'max_depth' must be an integer"):
+        params.update()

@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exposed import exposed, take_float, take_int
 from ..masks import logical_not as _not
 from ._spheres import Spheres
 
@@ -159,6 +160,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
     glasses along one path; no tutorial scene has that), the refracted direction's length
     at near-normal incidence (the tutorial's next intersection takes a direction up to
     1 + 2e-3 long as unit and hits off the surface; Mitsuba's rays are unit).
+
+    ``mi.traverse`` exposes ``max_depth`` and ``min_distance`` (non-differentiable); a
+    kernel traced after ``params.update()`` uses the new values.
 
     .. tabs::
 
@@ -569,9 +573,16 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return []
 
     def traverse(self, callback: mi.TraversalCallback) -> None:
-        callback.put("max_depth", self.max_depth, mi.ParamFlags.NonDifferentiable)
-        callback.put("exact_hits", self.exact_hits, mi.ParamFlags.NonDifferentiable)
-        callback.put("min_distance", self.min_distance, mi.ParamFlags.NonDifferentiable)
+        # as Mitsuba values that mi.traverse can write (a Python int or float it cannot)
+        nd = mi.ParamFlags.NonDifferentiable
+        callback.put("max_depth", exposed(self, "max_depth"), nd)
+        callback.put("min_distance", exposed(self, "min_distance"), nd)
+
+    def parameters_changed(self, keys: list[str]) -> None:
+        if not keys or "max_depth" in keys:
+            take_int(self, "tutorialpath", "max_depth", -1, 2 ** 31 - 1)
+        if not keys or "min_distance" in keys:
+            take_float(self, "tutorialpath", "min_distance", lo=0.0)
 
     def to_string(self) -> str:
         return (f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  exact_hits = "
