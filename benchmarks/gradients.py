@@ -80,7 +80,9 @@ def _g(x: float) -> str:
     return f"{x:.5g}"
 
 
-def table(measured, spp: int, seeds: int, command: str, seconds: float) -> str:
+def table(measured, setups_run, spp: int, seeds: int, command: str, seconds: float) -> str:
+    """The results page; ``setups_run`` the setups the rows came from (with those that
+    have none)."""
     import drjit as dr
     import mitsuba as mi
     verdicts = [(r, verdict(r, m, e, b)) for r, m, e, b in measured]
@@ -89,7 +91,7 @@ def table(measured, spp: int, seeds: int, command: str, seconds: float) -> str:
     skipped = [r for r, _, _, _ in measured if r.skip]
     params = {(r.owner, r.param) for r, _, _, _ in measured}
     setups = {r.setup.id for r, _, _, _ in measured}
-    idle = {r.setup.plugin for r, _, _, _ in measured} - {o for o, _ in params}
+    idle = {s.plugin for s in setups_run} - {o for o, _ in params}
     lines = [
         "# Gradients: AD against finite differences",
         "",
@@ -112,9 +114,9 @@ def table(measured, spp: int, seeds: int, command: str, seconds: float) -> str:
         "",
         f"    {command}",
         "",
-        f"**{len(measured)} rows: {len(params)} parameters of {len({o for o, _ in params})} "
-        f"plugins x {len(setups)} option sets; {passed} pass, {len(failed)} fail, "
-        f"{len(skipped)} skipped.**",
+        f"**{len(measured)} rows ({len(params)} differentiable parameters of "
+        f"{len({o for o, _ in params})} plugins, in {len(setups)} option sets): {passed} "
+        f"pass, {len(failed)} fail, {len(skipped)} skipped.**",
         "",
     ]
     if failed:
@@ -189,13 +191,17 @@ def main() -> None:
     import codermind  # noqa: F401  (registers the plugins)
     mi.set_log_level(mi.LogLevel.Error)
     start = time.time()
-    rows = [row for row in cases.rows(mi) if args.only in row.id]
+    setups = [s for s in cases.SETUPS if any(args.only in row.id
+                                              for row in cases.scene_rows(mi, s)[0])
+              or args.only in s.id]
+    rows = [row for row in cases.rows(mi, setups) if args.only in row.id]
     measured = run(mi, rows, args.spp, args.seeds)
     if args.write_results:
         command = "python benchmarks/gradients.py" + \
             (f" --spp {args.spp}" if args.spp != 64 else "") + \
             (f" --seeds {args.seeds}" if args.seeds != 4 else "") + " --write-results"
-        OUT.write_text(table(measured, args.spp, args.seeds, command, time.time() - start))
+        OUT.write_text(table(measured, setups, args.spp, args.seeds, command,
+                             time.time() - start))
         print(f"wrote {OUT.relative_to(ROOT)}")
 
 
