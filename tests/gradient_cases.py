@@ -419,7 +419,11 @@ def plugin_of(node) -> str | None:
     return module.rsplit(".", 1)[1]
 
 
+#: Loaded scenes, the last few only: Dr.Jit traces a virtual call for every live instance
+#: of the class it dispatches on, so every scene kept alive slows the renders of the
+#: others (all 36 setups alive made the other tests of a pytest worker 3x slower).
 _SCENES: dict = {}
+KEEP = 2
 
 
 def integrator_dict(setup: Setup, integrator: str) -> dict:
@@ -448,8 +452,17 @@ def load(mi, setup: Setup, integrator: str = "prb"):
         for name in params.keys():
             if not params.flags(name) & mi.ParamFlags.NonDifferentiable:
                 dr.make_opaque(params[name])
+        while len(_SCENES) >= KEEP:
+            del _SCENES[next(iter(_SCENES))]
         _SCENES[key] = scene_
     return _SCENES[key]
+
+
+def forget() -> None:
+    """Drop the loaded scenes (and their plugins, from Dr.Jit's registry)."""
+    import gc
+    _SCENES.clear()
+    gc.collect()
 
 
 def inherited_keys(mi) -> set[str]:

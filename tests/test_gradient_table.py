@@ -27,6 +27,15 @@ def _rows():
 
 
 CI_ROWS = _rows()
+cases.forget()
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _no_scene_outlives_the_module():
+    """The table's scenes are dropped after this module, so that they do not slow the
+    renders of the tests that follow on the same worker."""
+    yield
+    cases.forget()
 
 
 @pytest.mark.parametrize("row", CI_ROWS, ids=[row.id for row in CI_ROWS])
