@@ -28,6 +28,12 @@ INTERCEPT = np.array([0.0, 0.4, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9])
 
 FIELDS = ("tutorial", "exact")
 _TINY = 1e-30
+#: The exact shading normal skips a source within |p - c|^2 <= NORMAL_SKIP R^2 of the point:
+#: the tutorial skips |p - c|^2 <= 0.001 in its units (pixels), 1e-7 of the square of its
+#: radii of about 100, which no point of its blobs' surfaces comes near. Relative to R, a
+#: blob's normals do not depend on its world size (an absolute 0.001 skips every source of
+#: a blob of radius below about 0.03, whose normals are then zero).
+NORMAL_SKIP = 1e-7
 
 
 def zone_index(x: np.ndarray) -> np.ndarray:
@@ -123,10 +129,11 @@ class BlobField:
     # -- shading ------------------------------------------------------------------------
     def inverse_square_gradient(self, p: np.ndarray) -> np.ndarray:
         """The tutorial's shading normal (spec 2.10), unnormalized and pointing out:
-        sum R^2/|p-c|^4 (p - c), skipping sources with |p - c|^2 <= 0.001."""
+        sum R^2/|p-c|^4 (p - c), skipping sources with |p - c|^2 <= NORMAL_SKIP R^2."""
         out = np.zeros_like(p)
         for i, c in enumerate(self.centers):
-            d2 = self.sqdist(p, i) * self.radius ** 2
-            w = np.where(d2 > 0.001, self.radius ** 2 / np.maximum(d2 * d2, _TINY), 0.0)
+            x = self.sqdist(p, i)
+            d2 = x * self.radius ** 2
+            w = np.where(x > NORMAL_SKIP, self.radius ** 2 / np.maximum(d2 * d2, _TINY), 0.0)
             out += w[:, None] * (p - c)
         return out

@@ -12,7 +12,7 @@ from ..exposed import exposed, scalar
 from ..masks import logical_not as _not
 from ..blobmesh import BlobMeshError, build_blob_mesh, estimate_cost
 from ..blobmesh.cost import ACCURACY
-from ..blobmesh.field import INTERCEPT, SLOPE
+from ..blobmesh.field import INTERCEPT, NORMAL_SKIP, SLOPE
 
 from ..params import check_float, loose_number
 
@@ -192,6 +192,15 @@ def blob(props: mi.Properties) -> mi.Mesh:
     max_error = loose_number(props, "blob", "max_error", scale * radius / 500.0)
     max_triangles = loose_number(props, "blob", "max_triangles", MAX_TRIANGLES)
     _check_limits(radius, max_error, max_triangles)
+    # kept as the float32 values that mi.traverse hands out, so that writing them back
+    # re-tessellates the same blob
+    with np.errstate(over="ignore"):
+        centers = centers.astype(np.float32).astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(centers).all(axis=1))
+    if bad.size:
+        raise ValueError(f"blob: 'center{bad[0]}' must be finite in float32, got "
+                         f"{centers[bad[0]].tolist()}")
+    radius, max_error = float(np.float32(radius)), float(np.float32(max_error))
     return Blob(props, centers, radius, field, normals, matrix, max_error, tessellate,
                 max_triangles)
 
@@ -408,8 +417,8 @@ class Blob(mi.Mesh):
         for i, q in enumerate(rel):
             x = field.sqdist(p, i)
             if self.normals == "exact" or field.kind == "exact":
-                # the mesher skips a source within 0.001 units of the point, as the tutorial
-                keep = mi.Float(np.asarray(x * field.radius ** 2 > 0.001, dtype=np.float32))
+                # the mesher's rule (NORMAL_SKIP: the tutorial's, relative to R)
+                keep = mi.Float(np.asarray(x > NORMAL_SKIP, dtype=np.float32))
                 g += keep / dr.square(dr.squared_norm(q) * field.inv_r2) * q
             else:
                 slope = field.df(x, mean_at_bounds=True)
@@ -472,8 +481,8 @@ class Blob(mi.Mesh):
         for r in rel:
             q = r + s * do
             d2 = dr.squared_norm(q)
-            if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10)
-                w = dr.select(d2 > 0.001, self.radius ** 2 / dr.square(d2), 0.0)
+            if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10; NORMAL_SKIP)
+                w = dr.select(d2 * inv_r2 > NORMAL_SKIP, self.radius ** 2 / dr.square(d2), 0.0)
             else:                               # -grad F: outward
                 w = -self._zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
             n += w * q
