@@ -1,131 +1,16 @@
-"""Differentiable parameters (issue 15): the gradient ``prb`` computes through each plugin
-(reverse mode, ``dr.backward``) of the mean pixel value, along a direction, against
-central finite differences of renders at the same seed. Evidence: Mitsuba's own AD
-integrator against plain differences of its own primal renders (a check that the
-plugins' parameters are attached to the AD graph and carry the right derivative, not
-of the renderer). Small renders: 12x12 pixels."""
+"""Derivatives of the plugins below the renderer and against Mitsuba's own shapes: the
+blob's vertices and normals with respect to its centres and radius (closed form: the
+implicit function theorem), the one-source blob's image and derivatives against the
+built-in ``sphere`` (an outside reference), and the ``tutorial`` BSDF's sampled and
+evaluated weights (finite differences of their expectation, at the BSDF). The derivative
+of rendered images with respect to every differentiable parameter of every plugin, against
+finite differences of renders, is the gradient table: tests/gradient_cases.py, run by
+tests/test_gradient_table.py."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from test_traverse import _faces
-
-SIZE, SPP = 12, 32
-
-
-def _scene(mi, obj_bsdf=None, emitters=None):
-    # direct light only (max_depth 2) from a point light: the estimates vary only with the
-    # pixel jitter, so the adjoint pass (another seed, as Mitsuba requires) and the primal
-    # renders of the differences agree closely
-    d = {"type": "scene", "integrator": {"type": "prb", "max_depth": 2},
-         "sensor": {"type": "perspective", "fov": 40, "to_world": mi.ScalarTransform4f()
-                    .look_at([0, 0, 4], [0, 0, 0], [0, 1, 0]),
-                    "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE,
-                             "rfilter": {"type": "box"}},
-                    "sampler": {"type": "independent"}},
-         "obj": {"type": "sphere", "bsdf": obj_bsdf or {"type": "diffuse"}}}
-    d.update(emitters or {"light": {"type": "point", "position": [2, 2, 3],
-                                    "intensity": {"type": "rgb", "value": 15.0}}})
-    return d
-
-
-def _tex(kind, **extra):
-    return {"type": "diffuse", "reflectance": {"type": kind, **{"frequency": 2.0, **extra}}}
-
-
-SCENES = {
-    "turbulence": lambda mi: _scene(mi, _tex("turbulence", octaves=3, color0={
-        "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
-    # stripes at the tutorial's 0.05 per unit: at the default 5 the 12x12 pixels alias them,
-    # and the adjoint pass's own noise (seed_grad 2, 3, 4: 1.3e-3, 4.0e-4, 9.6e-4 against
-    # the difference's 8.2e-4) swamps the frequency's derivative at 32 spp
-    "marble": lambda mi: _scene(mi, _tex("marble", octaves=3, stripe_frequency=0.05, color0={
-        "type": "rgb", "value": 0.6}, color1={"type": "rgb", "value": 0.1})),
-    # the frequencies at a frequency the 12x12 pixels resolve: at 2 per unit the
-    # derivative of the mean pixel is the sum of many aliased bits of either sign, and
-    # differs by 2x between pixel-jitter seeds
-    "turbulence_f": lambda mi: _scene(mi, _tex("turbulence", octaves=3, frequency=0.5,
-                                               color0={"type": "rgb", "value": 0.6},
-                                               color1={"type": "rgb", "value": 0.1})),
-    "perlin": lambda mi: _scene(mi, _tex("perlin", scale=0.4, offset=0.5, frequency=0.4)),
-    "noisebump": lambda mi: _scene(mi, {"type": "noisebump", "bumplevel": 0.4,
-                                        "frequency": 2.0, "nested": {
-                                            "type": "tutorial", "page": 2,
-                                            "diffuse": {"type": "rgb", "value": 0.5},
-                                            "specular": {"type": "rgb", "value": 0.5},
-                                            "power": 20.0}}),
-    "tutorial": lambda mi: _scene(mi, {"type": "tutorial", "page": 2,
-                                       "diffuse": {"type": "rgb", "value": 0.5},
-                                       "specular": {"type": "rgb", "value": 0.4},
-                                       "power": 10.0}),
-    "tutorialpoint": lambda mi: _scene(mi, emitters={"light": {
-        "type": "tutorialpoint", "position": [2, 2, 3],
-        "intensity": {"type": "rgb", "value": 15.0}}}),
-    "cubemap": lambda mi: _scene(mi, emitters={"env": {"type": "cubemap", **_faces(mi)}}),
-}
-
-CASES = [
-    ("turbulence", "obj.bsdf.reflectance.color0.value"),
-    ("marble", "obj.bsdf.reflectance.color1.value"),
-    ("perlin", "obj.bsdf.reflectance.scale"),
-    ("perlin", "obj.bsdf.reflectance.offset"),
-    ("perlin", "obj.bsdf.reflectance.frequency"),
-    ("turbulence_f", "obj.bsdf.reflectance.frequency"),
-    ("marble", "obj.bsdf.reflectance.frequency"),
-    ("marble", "obj.bsdf.reflectance.stripe_frequency"),
-    ("noisebump", "obj.bsdf.bumplevel"),
-    ("noisebump", "obj.bsdf.frequency"),
-    ("tutorial", "obj.bsdf.diffuse.value"),
-    ("tutorial", "obj.bsdf.specular.value"),
-    ("tutorial", "obj.bsdf.power"),
-    ("tutorialpoint", "light.intensity.value"),
-    ("cubemap", "env.scale"),
-    ("cubemap", "env.data"),
-]
-
-
-def _direction(mi, value):
-    """A fixed direction in the parameter's space, the parameter's shape."""
-    import drjit as dr
-    n = dr.width(value) if not isinstance(value, mi.TensorXf) else value.array.shape[0]
-    d = np.random.default_rng(7).uniform(0.5, 1.0, n).astype(np.float32)
-    if isinstance(value, mi.TensorXf):
-        return mi.TensorXf(d.reshape(value.shape))
-    if dr.size_v(type(value)) == 3:       # a colour
-        return type(value)(*[float(x) for x in d[:1]] * 3) if n == 1 else type(value)(d)
-    return type(value)(d)
-
-
-@pytest.mark.parametrize("name,key", CASES, ids=[f"{n}-{k.split('.', 1)[1]}"
-                                                 for n, k in CASES])
-def test_gradient_matches_finite_differences(llvm, name, key):
-    import drjit as dr
-    mi = llvm
-    scene = mi.load_dict(SCENES[name](mi))
-    params = mi.traverse(scene)
-    x0 = type(params[key])(params[key])
-    d = _direction(mi, x0)
-
-    def loss(value):
-        params[key] = value
-        params.update()
-        return float(dr.mean(mi.render(scene, params, spp=SPP, seed=1).array)[0])
-
-    h = 1e-2
-    fd = (loss(x0 + h * d) - loss(x0 - h * d)) / (2 * h)
-
-    params[key] = type(x0)(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    image = mi.render(scene, params, spp=SPP, seed=1, seed_grad=2, spp_grad=SPP)
-    dr.backward(dr.mean(image.array))
-    g = dr.grad(params[key])
-    ad = float(np.sum(np.array(g, dtype=np.float64) * np.array(d, dtype=np.float64)))
-    print(f"{key}: AD {ad:.5g}, central difference {fd:.5g}")   # shown with pytest -s
-    assert abs(fd) > 1e-4, "the parameter does not affect the image"
-    assert ad == pytest.approx(fd, rel=0.05), (ad, fd)
 
 
 # -- the blob: derivatives of the mesh with respect to its centres and radius -----------
@@ -258,66 +143,6 @@ def test_blob_vertex_normals_follow_the_surface_to_first_order(llvm, key, delta,
           f"{np.median(err):.3g}, 99th percentile {np.percentile(err, 99):.3g}")
     assert keep.mean() > 0.8 and np.median(size) > 1e-4
     assert np.percentile(err, 99) < 1e-3 * np.median(size)
-
-
-def _centre_gradient(mi, scene, steps) -> tuple[float, list[float]]:
-    """prb's derivative of the mean pixel along a fixed random direction of the blob's
-    centre coordinates, and the central differences of re-tessellated renders for each
-    step in ``steps``."""
-    import drjit as dr
-    params = mi.traverse(scene)
-    key = "obj.centers"
-    x0 = mi.Float(params[key])
-    direction = mi.Float(np.random.default_rng(3).uniform(-1, 1, 6).astype(np.float32))
-
-    def loss(value):
-        params[key] = value
-        params.update()
-        return float(dr.mean(mi.render(scene, params, spp=64, seed=1).array)[0])
-
-    fds = [(loss(x0 + h * direction) - loss(x0 - h * direction)) / (2 * h) for h in steps]
-    params[key] = mi.Float(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    image = mi.render(scene, params, spp=64, seed=1, seed_grad=2)
-    dr.backward(dr.mean(image.array))
-    return float(np.sum(np.array(dr.grad(params[key])) * np.array(direction))), fds
-
-
-def test_blob_centre_gradient_matches_finite_differences(llvm):
-    """prb's gradient of the mean pixel along a direction of the 6 centre coordinates,
-    framing the blob so that no silhouette is visible (prb takes no boundary terms),
-    against central differences of re-tessellated renders, for the smooth ``exact``
-    field. Each difference re-meshes, which adds noise of its own: measured 0.150, 0.147,
-    0.145 for h = 0.01, 0.02, 0.04 against AD 0.144; the mean of h = 0.02 and 0.04 is
-    compared, within 5%. (The zone field with this light: see the next test.)"""
-    mi = llvm
-    ad, fds = _centre_gradient(mi, mi.load_dict(_blob_scene(mi, "exact")), (0.02, 0.04))
-    fd = float(np.mean(fds))
-    print(f"centers: AD {ad:.5g}, central difference {fd:.5g}")
-    assert ad == pytest.approx(fd, rel=0.05)
-
-
-def test_zone_field_centre_gradient_matches_finite_differences_without_visible_shadows(llvm):
-    """The zone (``tutorial``) field, as the test above but with the point light at the
-    camera, so that no shadow edge is visible. With the light at (2, 2, 3) AD gave 0.1235
-    (max_error 0.002) and 0.1202 (0.0005) against central differences of 0.137-0.140
-    (h = 0.005-0.02, max_error 0.0005): the part of the image that changes with the
-    centres includes shadow edges there, whose motion neither ``prb`` nor, for a point
-    light, ``prb_projective`` differentiates. With the light at the camera, measured:
-    FD -0.0478 (h = 0.005), -0.0470 (h = 0.01), AD -0.0465. A fine mesh (max_error
-    0.0005) keeps the differences' re-meshing noise low. The tolerance follows from the
-    differences' own noise: their spread between the two step sizes, which must itself
-    be below 5%."""
-    mi = llvm
-    d = _blob_scene(mi, "tutorial")
-    d["obj"]["max_error"] = 0.0005
-    d["light"]["position"] = [0, 0, 2]          # at the eye: no visible shadow
-    ad, fds = _centre_gradient(mi, mi.load_dict(d), (0.005, 0.01))
-    fd, spread = float(np.mean(fds)), abs(fds[0] - fds[1])
-    print(f"centers (zone field): AD {ad:.5g}, central differences {fds}")
-    assert spread < 0.05 * abs(fd)
-    assert abs(ad - fd) <= 2 * spread + 0.01 * abs(fd)
 
 
 # -- the blob's shading normals and silhouette against Mitsuba's own sphere ---------------
@@ -501,62 +326,6 @@ def test_blob_silhouette_term_is_the_sphere_s(llvm, normals):
         tol = 2 * MAX_ERROR * abs(exact[what]) + 2 * (abs(s[0] - s[1]) + abs(b[0] - b[1]))
         assert abs(np.mean(s) - exact[what]) <= tol
         assert abs(np.mean(b) - exact[what]) <= tol
-
-
-# -- the blob against central differences: both fields' centres and radius ---------------
-
-@pytest.mark.parametrize("normals", ["exact", "field", FLAT])
-@pytest.mark.parametrize("key", ["obj.centers", "obj.radius"])
-def test_blob_derivatives_match_finite_differences(llvm, key, normals):
-    """Two sources of the zone field, ``prb_projective`` with the point light at the camera
-    (no shadow edge in view) and the blob filling the frame: AD of the mean pixel along a
-    direction of the 6 centre coordinates (towards the camera and apart), or of the radius,
-    against central differences of re-tessellated renders (max_error 0.0005). The
-    tolerance comes from both sides' own noise: twice the root sum of squares of the
-    differences' spread between two steps (h = 0.005, 0.01) and of AD's spread between two
-    seeds, each below 5 % (so the comparison means something), plus the mesh's relative
-    error max_error / R = 6e-4. Measured: centres AD 3.1256
-    against 3.1230 and 3.1244 (``exact``), 3.1439 against 3.1420 and 3.1429 (``field``);
-    radius 6.9578 against 6.9395 and 6.9516, 7.0104 against 7.0034 and 7.0075. With the
-    vertex normals held constant, AD was 3.176 and 3.183 for the centres; and -0.1105
-    against differences of -0.0264 along the random direction of
-    ``test_blob_centre_gradient_matches_finite_differences`` (``exact``, 64 spp; now
-    -0.0266)."""
-    import drjit as dr
-    mi = llvm
-    d = _blob_scene(mi, "tutorial", normals)
-    d["integrator"]["type"] = "prb_projective"
-    d["obj"]["max_error"] = 0.0005
-    d["light"]["position"] = [0, 0, 2]          # at the eye
-    scene = mi.load_dict(d)
-    params = mi.traverse(scene)
-    x0 = type(params[key])(params[key])
-    direction = mi.Float(0.3, 0.2, 0.5, -0.4, 0.1, 0.6) if key == "obj.centers" \
-        else mi.Float(1.0)
-
-    def loss(value):
-        params[key] = value
-        params.update()
-        return float(dr.mean(mi.render(scene, params, spp=32, seed=1).array)[0])
-
-    fds = [(loss(x0 + h * direction) - loss(x0 - h * direction)) / (2 * h)
-           for h in (0.005, 0.01)]
-    params[key] = type(x0)(x0)
-    dr.enable_grad(params[key])
-    params.update()
-    ads = []
-    for seed in (2, 3):
-        image = mi.render(scene, params, spp=32, seed=1, seed_grad=seed)
-        dr.backward(dr.mean(image.array), flags=dr.ADFlag.ClearVertices)
-        ads.append(float(np.dot(np.array(dr.grad(params[key])), np.array(direction))))
-        dr.set_grad(params[key], 0.0)
-    print(f"{key} ({normals}): AD {ads}, central differences {fds}")
-    fd, ad = float(np.mean(fds)), float(np.mean(ads))
-    spread_fd, spread_ad = abs(fds[0] - fds[1]), abs(ads[0] - ads[1])
-    assert spread_fd < 0.05 * abs(fd) and spread_ad < 0.05 * abs(fd)
-    # both sides' noise, and the mesh's own relative error (max_error / R) for what the
-    # two tessellations differ by
-    assert abs(ad - fd) <= 2 * np.hypot(spread_fd, spread_ad) + 0.0005 / 0.8 * abs(fd)
 
 
 # -- the tutorial material's weights: its roulette, at the BSDF ---------------------------

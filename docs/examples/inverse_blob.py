@@ -75,8 +75,9 @@ def scene_dict(mi, centers: np.ndarray, color, size: int = 48, normals: str = "e
                      "color1": {"type": "rgb", "value": [0.1, 0.1, 0.1]}}}},
         # the point light sits at the front camera: Mitsuba's projective integrators
         # estimate no derivative of a point light's shadow edges (nor does prb), and
-        # shadows seen in the image bias the centres' gradients (tests/test_gradients.py
-        # measures it: 14% on a zone-field blob). From the front no shadow is visible.
+        # shadows seen in the image bias the centres' gradients (the gradient table's
+        # blob rows with shadows: docs/results/gradients.md). From the front no shadow
+        # is visible.
         "light": {"type": "point", "position": EYES[0], "intensity": 30.0},
         # no environment light: its occlusion (shadow rays towards the sky) has no
         # derivative here either; with a constant one (0.2) the centres stalled at 1.35% R
