@@ -131,9 +131,11 @@ def blob(props: mi.Properties) -> mi.Mesh:
       shading discontinuity. The vertices then move along the normal only, so that the
       facets turn with the surface, but what the sweep contributes is missing: a
       one-source blob moved towards the camera gives 0.043 where the sphere and finite
-      differences give 0.069 (tests/test_gradients.py's framing: 0.144 against 0.147),
-      and the polygonal contour slides, a few per cent of the silhouette term (-2.9 % to
-      +1.2 %). Use ``exact`` or ``field`` normals for gradients.
+      differences give 0.069, and the polygonal contour slides, a few per cent of the
+      silhouette term (-2.9 % to +1.2 %). On the ``tutorial`` field ``prb_projective``
+      also gives single pixels of derivatives hundreds of times the rest on the crease's
+      thin triangles (docs/results/gradients.md). Use ``exact`` or ``field`` normals for
+      gradients.
     * ``normals`` = ``field`` on the ``tutorial`` field: the normal jumps across the
       creases, which the mesh spreads over about a triangle; where creases sweep over the
       image, their part is differentiated only approximately (along one direction of
