@@ -1,6 +1,6 @@
 """Independent exact solvers for the blob surface, for the tests (numpy only).
 
-Nothing here comes from the plugin: the fields are written again from TUTORIAL_SPEC 2.10,
+Nothing here comes from the plugin: the fields are written again from facts.md F11,
 and surface points are found exactly along lines:
 
 * ``tutorial`` field: the zone method. Along a line x_i(t) = |o + t d - c_i|^2 / R^2 is
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# f through the spec's points, x ascending (plus the continued inner segment at x = 0).
+# f through the knots of facts.md F11.1, x ascending (plus the continued inner segment at x = 0).
 SPEC_X = np.array([0.0, 1.0, 10 / 9, 1.25, 10 / 7, 5 / 3, 2.0, 2.5, 10 / 3, 5.0, 10.0])
 SPEC_F = np.array([1.9, 1.0, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.0])
 

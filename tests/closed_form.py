@@ -1,4 +1,4 @@
-"""Closed-form expectations for the tutorial material (spec 2.6, 2.7) in numpy float64,
+"""Closed-form expectations for the tutorial material (facts.md F7, F8) in numpy float64,
 and a renderer that returns each pixel's radiance with its hit position (1 spp, box
 filter, position AOV), shared by the tutorial-material and bump tests."""
 
@@ -57,7 +57,7 @@ def lighting(p, n, view, diffuse=DIFFUSE, specular=SPECULAR, power=POWER, light=
 
 
 def fresnel(cos_i, n1, n2):
-    """Spec 2.7 step 1: reflectance and cos_t (independent transcription)."""
+    """facts.md F8 step 1: reflectance and cos_t (independent transcription)."""
     sin_t2 = (n1 / n2) ** 2 * (1 - cos_i ** 2)
     with np.errstate(invalid="ignore", divide="ignore"):
         cos_t = np.sqrt(np.maximum(1 - sin_t2, 0))

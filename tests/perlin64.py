@@ -1,10 +1,10 @@
 """An independent double-precision (numpy float64) transcription of Ken Perlin's
 improved-noise reference code (2002) and of the tutorial's version of it, and the
-tutorial's turbulence and marble (spec 2.6), for checking the plugins. It follows the code
+tutorial's turbulence and marble (facts.md F7), for checking the plugins. It follows the code
 line by line (14 table look-ups, the branchy ``grad``) and shares no code with
 ``codermind``.
 
-``gradient`` chooses the ``grad`` function (spec 2.8): ``"tutorial"`` (the tutorial's
+``gradient`` chooses the ``grad`` function (facts.md F9): ``"tutorial"`` (the tutorial's
 printed code: u = x if h < 8 or h is 12 or 13, else y; v = y if h < 4 or h is 12 or 13,
 else z) or ``"reference"`` (Perlin's: v = y if h < 4, x if h is 12 or 14, else z).
 Every function here defaults to the tutorial's, as the plugins do."""

@@ -106,7 +106,7 @@ def test_tmin_and_tmax_bound_the_crossing(llvm):
 
 def test_interaction_normal_is_the_exact_gradient(llvm):
     """[independent formula] ``interaction`` at the hit: p on the ray at t, the shading
-    normal along -grad sum R^2/d^2 (normals = exact, spec 2.10), wi = -d in its frame."""
+    normal along -grad sum R^2/d^2 (normals = exact, facts.md F11.4), wi = -d in its frame."""
     mi = llvm
     shape = analytic_blob(mi, PAGE4)
     rng = np.random.default_rng(4)
@@ -223,7 +223,7 @@ def _lines_through_a_core(mi, n=50):
 
 
 def test_strict_lone_core_is_hit(llvm):
-    """[spec 2.10] One source alone: the float32 running bound in its core sums to 1, so
+    """[facts.md F11] One source alone: the float32 running bound in its core sums to 1, so
     strict and clean find the same sphere on every ray."""
     mi = llvm
     shape = analytic_blob(mi, [[0, 0, 0]])
@@ -234,7 +234,7 @@ def test_strict_lone_core_is_hit(llvm):
 
 
 def test_strict_holes_after_another_zone_zero(llvm):
-    """[spec 2.10, step 3] A ray that has entered and left another source's zone 0 before a
+    """[facts.md F11, step 3] A ray that has entered and left another source's zone 0 before a
     lone source's core has a float32 bound of 0.99999994 there: strict skips the core (the
     original's holes), clean hits it; the port's strict blob (codermind_ref.blob,
     float32_sums) has the same holes on the same rays."""

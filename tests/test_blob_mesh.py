@@ -2,7 +2,7 @@
 topology through merging and separating, triangle quality, bad input.
 
 Every distance is checked with the independent solvers of ``blob_reference`` (the fields
-written again from the spec, surface points found exactly along lines)."""
+written again from facts.md F11, surface points found exactly along lines)."""
 
 from __future__ import annotations
 

@@ -420,8 +420,8 @@ def test_exact_hit_agrees_with_the_zone_solver(llvm):
 
 
 def test_zone_field_is_the_spec_table(llvm):
-    """[fact] The one-source field that ``exact_hit`` solves, f(x) and f'(x), against spec
-    2.10's points (blob_reference.SPEC_X / SPEC_F, linear in between, 0 beyond x = 10)."""
+    """[fact] The one-source field that ``exact_hit`` solves, f(x) and f'(x), against facts.md
+    F11.1's knots (blob_reference.SPEC_X / SPEC_F, linear in between, 0 beyond x = 10)."""
     mi = llvm
     shape = mi.load_dict(blob_dict(mi, [[0, 0, 0]], field="tutorial"))
     x = np.concatenate([np.random.default_rng(2).uniform(0.2, 12.0, 20000), ref.SPEC_X[1:]])

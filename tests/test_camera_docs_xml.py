@@ -1,6 +1,6 @@
 """The XML examples that the plugin reference gives for the tutorial's cameras and cube map
 (docs/reference/, generated from the docstrings; what a converter copies) load and give the
-spec's rays and settings."""
+rays and settings of facts.md F3, F5 and F12."""
 
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ def test_documented_cameras_give_the_tutorial_rays(llvm):
     c, r, _, o, d, maxt = film_rays(mi, mi.load_string(ortho))
     assert np.abs(o[:, 0] - c).max() < 1e-4 and np.abs(o[:, 1] - (H - 1 - r)).max() < 1e-4
     assert np.all(o[:, 2] == -1000) and np.all(d == [0, 0, 1]) and np.all(maxt == 2000)
-    # Page 4 (1280 x 960 film): sub-sample (c/2, (959 - r)/2), spec 2.4 lens.
+    # Page 4 (1280 x 960 film): sub-sample (c/2, (959 - r)/2), facts.md F5 lens.
     c, r, lens, o, d, maxt = film_rays(mi, mi.load_string(conic))
     o_ref, d_ref = spec_ray(c / 2, (2 * H - 1 - r) / 2, lens[0], lens[1], 90.0, 450.0, 10.0,
                             w=W, h=H)

@@ -1,5 +1,5 @@
 """The `conic` thin-lens camera: the disc lens against built-in `thinlens`, blur sizes
-against the thin-lens formula, the tutorial lens against the construction of spec §2.4,
+against the thin-lens formula, the tutorial lens against the construction of facts.md F5,
 the pinhole case, the fixed sub-sample grid of §2.2, and bad input."""
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def tutorial_camera(mi, lens="tutorial", fov=30.0, focus=400.0, aperture=40.0, k
 
 
 def spec_ray(fx, fy, u1, u2, fov, focus, aperture, w=W, h=H):
-    """Spec §2.2/§2.4 in float64: origin and direction of the page-4 ray of sub-sample
+    """facts.md F3/§2.4 in float64: origin and direction of the page-4 ray of sub-sample
     (fx, fy) with DOF draws (u1, u2)."""
     pd = (w / 2) / math.tan(math.radians(fov) / 2)
     o = np.array([w / 2, h / 2, 0.0])
@@ -61,7 +61,7 @@ def test_tutorial_lens_rays_follow_the_spec_construction(llvm):
 
 
 def test_tutorial_probe_rays(llvm):
-    """The auto-exposure probes of spec 2.5: un-jittered rays (sample3 = 0) through
+    """The auto-exposure probes of facts.md F6: un-jittered rays (sample3 = 0) through
     pixel corners (i s, j s), s = max(W, H)/16, some above the image (y > H)."""
     mi = llvm
     sensor = mi.load_dict(tutorial_camera(mi, fov=90.0, focus=450.0, aperture=10.0))

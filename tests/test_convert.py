@@ -192,7 +192,7 @@ def test_every_element_names_its_source_line(tmp_path, tutorial_dir):
 
 
 def test_probe_rays_are_the_tutorials(llvm, tmp_path, tutorial_dir):
-    """The probes sensor of a converted page-4 scene gives spec 2.5's rays: from (W/2, H/2, 0)
+    """The probes sensor of a converted page-4 scene gives facts.md F6.3's rays: from (W/2, H/2, 0)
     towards normalize((x - W/2)/PD, (y - H/2)/PD, 1) for x, y = i s, j s (past the top)."""
     import mitsuba as mi
     from codermind.tutorial import render as tr

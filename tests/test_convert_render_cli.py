@@ -132,7 +132,7 @@ def test_python_api_variance_from_passes(llvm, tmp_path):
 
 def test_probe_rays_are_the_cameras_rays_at_the_probe_positions(llvm):
     """Page 3 (no lens, no roulette: every ray deterministic): each auto-exposure probe's
-    radiance equals the rendered film's sub-sample at the probe's tutorial pixel (spec 2.5:
+    radiance equals the rendered film's sub-sample at the probe's tutorial pixel (facts.md F6.3:
     probe (i s, j s) is the pinhole ray of sub-sample (0, 0) of that pixel), channel by
     channel. A mix-up of probes and channels (a (3, n) array reshaped to (n, 3)) fails it."""
     from codermind.tutorial import render as tr

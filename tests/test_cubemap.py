@@ -1,4 +1,4 @@
-"""The `cubemap` environment: lookups against spec §2.11 computed here from the bundled
+"""The `cubemap` environment: lookups against facts.md F12 computed here from the bundled
 faces (read with this file's own TGA reader), row order, decodes, light sampling
 (chi2, eval = weight * pdf, a lit sphere against built-in `envmap`), the background
 mode, bad input."""
@@ -21,7 +21,7 @@ FILES = dict(zip(FACES, ("alpup.tga", "alpdown.tga", "alpright.tga", "alpleft.tg
                          "alpforward.tga", "alpback.tga")))
 
 
-# -- an independent implementation of spec §2.11 (numpy, float64) ---------------------
+# -- an independent implementation of facts.md F12 (numpy, float64) ---------------------
 
 def read_tga(path: Path) -> np.ndarray:
     """Pixels of an uncompressed 24-bit TGA in STORED order, as B, G, R bytes / 255 turned
@@ -45,14 +45,14 @@ def write_tga(path: Path, rgb: np.ndarray, top_left: bool = False, footer: bool 
 
 
 def spec_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Face index (FACES order), u, v of spec §2.11 for directions d (n, 3)."""
+    """Face index (FACES order), u, v of facts.md F12 for directions d (n, 3)."""
     a, b, c = d.T
     is_x = (abs(a) >= abs(b)) & (abs(a) >= abs(c))
     is_y = ~is_x & (abs(b) >= abs(c))
     is_z = ~is_x & ~is_y
     face, u, v = np.zeros(len(d), int), np.zeros(len(d)), np.zeros(len(d))
     with np.errstate(divide="ignore", invalid="ignore"):
-        table = [  # (mask, face, u, v) straight from the spec's table
+        table = [  # (mask, face, u, v) straight from the table of facts.md F12.2
             (is_x & (a > 0), 2, 1 - (c / a + 1) / 2, (b / a + 1) / 2),
             (is_x & (a <= 0), 3, 1 - (c / a + 1) / 2, 1 - (b / a + 1) / 2),
             (is_y & (b > 0), 0, (a / b + 1) / 2, 1 - (c / b + 1) / 2),
@@ -110,7 +110,7 @@ def plugin_lookup(mi, emitter, d: np.ndarray) -> np.ndarray:
 
 def probe_directions(rng) -> np.ndarray:
     """Centres, edge midpoints, corners (ties), points just inside edges, random ones;
-    normalized in float32, so the spec sees exactly the plugin's input."""
+    normalized in float32, so the expectation sees exactly the plugin's input."""
     dirs = []
     for axis in range(3):
         for sign in (1.0, -1.0):
@@ -259,7 +259,7 @@ def test_sampled_weight_times_pdf_is_radiance(llvm, tutorial_dir):
 
 
 def latlong_from_spec(tex: np.ndarray, decode: dict, width: int) -> np.ndarray:
-    """The spec's cube-map radiance at the texel centres of a lat-long map in the layout
+    """The cube-map radiance of facts.md F12 at the texel centres of a lat-long map in the layout
     of built-in `envmap` (row 0: +y; d = (sin phi sin theta, cos theta, -cos phi sin theta))."""
     h = width // 2
     v, u = (np.mgrid[0:h, 0:width] + 0.5) / np.array([h, width])[:, None, None]
@@ -290,7 +290,7 @@ def lit_sphere(mi, emitter: dict, integrator: dict | None = None) -> object:
 
 
 def test_lights_a_sphere_like_builtin_envmap(llvm, tutorial_dir):
-    """The same radiance as a 2048 x 1024 lat-long map sampled from the spec's cube map:
+    """The same radiance as a 2048 x 1024 lat-long map sampled from the cube map of facts.md F12:
     the two differ only by the lat-long's bilinear resampling, far below the noise of
     the irradiance (a smooth integral of the radiance)."""
     mi = llvm

@@ -1,6 +1,6 @@
 """Perlin noise and the solid textures against the independent float64 reference
 (tests/perlin64.py), for each ``gradient`` choice (the tutorial's and Perlin's 2002
-reference, spec 2.8), the spec's measured noise values, the float32 breakdown, and the
+reference, facts.md F9), the measured noise values of facts.md F14.5, the float32 breakdown, and the
 texture plugins' interface."""
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ def interaction(mi, p):
 def test_reference_is_perlins():
     """The test's own reference reproduces the value printed by Perlin's Java reference
     implementation, noise(3.14, 42, 7) = 0.136919958784, so its table and code are his; the
-    spec's value of the reference gradient at (1.3, 2.7, -5.55), -0.4458, checks its grad()."""
-    for gradient in GRADIENTS:      # none of its corners hashes to 13 or 14 (spec 2.8)
+    value of the reference gradient at (1.3, 2.7, -5.55), -0.4458 (facts.md F14.5), checks its grad()."""
+    for gradient in GRADIENTS:      # none of its corners hashes to 13 or 14 (facts.md F14.5)
         value = float(perlin64.noise(3.14, 42, 7, gradient))
         assert value == pytest.approx(0.13691995878400012, abs=1e-15)
     assert float(perlin64.noise(1.3, 2.7, -5.55, "reference")) == pytest.approx(-0.4458,
@@ -51,7 +51,7 @@ def test_tutorial_reference_matches_the_original_program():
 
 
 def test_gradients_differ_only_for_hashes_13_and_14():
-    """Spec 2.8: the tutorial's and the reference grad() agree for every h except 13, 14."""
+    """facts.md F9: the tutorial's and the reference grad() agree for every h except 13, 14."""
     x, y, z = np.random.default_rng(3).normal(size=(3, 50))
     for h in range(16):
         same = np.allclose(perlin64._grad_tutorial(np.full(50, h), x, y, z),
@@ -61,8 +61,8 @@ def test_gradients_differ_only_for_hashes_13_and_14():
 
 @pytest.mark.parametrize("gradient, expected", [("tutorial", -0.5538), ("reference", -0.4458)])
 def test_plugin_gives_the_spec_values(llvm, gradient, expected):
-    """Through the perlin texture (frequency 1, from XML-style properties): the spec's values
-    of each gradient at (1.3, 2.7, -5.55) and noise(3.14, 42, 7) = 0.13691995878400012 (both),
+    """Through the perlin texture (frequency 1, from XML-style properties): the values
+    of each gradient (facts.md F14.5) at (1.3, 2.7, -5.55) and noise(3.14, 42, 7) = 0.13691995878400012 (both),
     within the float32 error of the rounded positions (<= 2e-6). Default: the tutorial's."""
     mi = llvm
     import drjit as dr
@@ -165,7 +165,7 @@ TUTORIAL_FREQUENCIES = {"turbulence": {"frequency": 0.05},
 @pytest.mark.parametrize("gradient", GRADIENTS)
 @pytest.mark.parametrize("kind", ["turbulence", "marble"])
 def test_turbulence_and_marble_match_reference(llvm, kind, gradient):
-    """Within 1e-4 of the float64 formulas of spec 2.6 for |p_i| <= 1e3 (default colours:
+    """Within 1e-4 of the float64 formulas of facts.md F7 for |p_i| <= 1e3 (default colours:
     the texture returns T or m itself), in eval, eval_1 and eval_3, for each gradient."""
     mi = llvm
     rng = np.random.default_rng(21)

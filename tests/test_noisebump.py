@@ -1,4 +1,4 @@
-"""noisebump: the perturbed normal is the tutorial's (spec 2.9, with the flip-before-bump
+"""noisebump: the perturbed normal is the tutorial's (facts.md F10, with the flip-before-bump
 for hits from inside), checked through nested tutorial BSDFs against the float64 noise of
 ``perlin64``; a bumped sphere rendered with ``path`` equals the closed form per pixel.
 

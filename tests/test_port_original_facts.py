@@ -1,9 +1,9 @@
 """The strict port against measured facts about the ORIGINAL page-4 program.
 
-Evidence kind: every expected number here is a statement of ``TUTORIAL_SPEC.md`` about the
-original program (its "Corrections" paragraph, sections 2.2, 2.8, 2.10 and 3), measured there by
-running and tracing the original; none is an output of the port or of the plugins. Tolerances
-come from how the spec states the number (digits given) or from the sampling error of the
+Evidence kind: every expected number here is a measured fact of the original program
+(docs/facts.md F14, with facts.md F3.3, F9 and F11.3), obtained by running and tracing the
+original; none is an output of the port or of the plugins. Tolerances come from how
+facts.md states the number (digits given) or from the sampling error of the
 port's own estimate, as each test says. Kept cheap: exposure probes and primary-ray
 intersections only, no full renders.
 """
@@ -36,19 +36,19 @@ def strict_exposures(page4):
 
 
 def test_strict_auto_exposure_at_seed_0_inside_originals_range(strict_exposures):
-    """Spec fact (Corrections): the original's auto exposure over 200 random sequences lies in
+    """Fact (facts.md F14.3): the original's auto exposure over 200 random sequences lies in
     2.091-2.168."""
     assert 2.091 <= strict_exposures[0] <= 2.168
 
 
 def test_strict_auto_exposure_mean_over_20_seeds(strict_exposures):
-    """Spec fact (Corrections): the original's auto exposure has mean 2.1295 (sd 0.016, so the
+    """Fact (facts.md F14.3): the original's auto exposure has mean 2.1295 (sd 0.016, so the
     mean of 20 seeds has sd 0.0036; the issue's tolerance 0.01 is 2.8 of those)."""
     assert abs(strict_exposures.mean() - 2.1295) <= 0.01
 
 
 def test_strict_auto_exposure_spread(strict_exposures):
-    """Spec facts (Corrections: sd 0.016; section 3: about 0.8 % of the exposure). With 20
+    """Fact (facts.md F14.3: sd 0.016, about 0.8 % of the exposure). With 20
     seeds the sample sd / true sd lies in [0.56, 1.52] with probability 0.999 (chi-square, 19
     degrees of freedom)."""
     sd = strict_exposures.std(ddof=1)
@@ -56,7 +56,7 @@ def test_strict_auto_exposure_spread(strict_exposures):
 
 
 def test_projection_distance_ties_change_exposure_by_0_4_percent(page4, monkeypatch):
-    """Spec fact (2.2): for FOV 90 the original's float32 PD is exactly W/2, the probes of
+    """Facts (facts.md F3.3, F14.4): for FOV 90 the original's float32 PD is exactly W/2, the probes of
     column 0 and row 14 have exact face ties, and a float64 PD (320.00000000000006) moves them
     to other faces: "about 0.4 % of the exposure" (one digit: 0.35-0.45 %)."""
     scene, world = page4
@@ -74,7 +74,7 @@ def test_projection_distance_ties_change_exposure_by_0_4_percent(page4, monkeypa
 
 
 def test_tutorial_noise_values():
-    """Spec facts (Corrections, 2.8): noise(3.14, 42, 7) = 0.13691995878400012 (exactly, double
+    """Facts (facts.md F9.2, F14.5): noise(3.14, 42, 7) = 0.13691995878400012 (exactly, double
     precision) and noise(1.3, 2.7, -5.55) ~ -0.5538 (4 digits) in the original, while Perlin's
     2002 reference gradient gives ~ -0.4458 there."""
     assert float(perlin.noise(3.14, 42, 7)) == 0.13691995878400012
@@ -85,7 +85,7 @@ def test_tutorial_noise_values():
 
 
 def test_noise_uses_perlins_permutation_table():
-    """Spec fact (2.8): the program uses Perlin's table (a permutation of 0..255, 223 where the
+    """Fact (facts.md F9.1): the program uses Perlin's table (a permutation of 0..255, 223 where the
     tutorial's printed table has the typo 23)."""
     assert sorted(perlin.PERMUTATION) == list(range(256))
 
@@ -117,7 +117,7 @@ def small_lobe_holes(page4):
 
 
 def test_strict_blob_holes_are_on_the_small_lobes_right_edge(page4, small_lobe_holes):
-    """Spec fact (Corrections, 2.10): the original's primary rays pass through the small lobe
+    """Facts (facts.md F11.3, F14.6): the original's primary rays pass through the small lobe
     without a hit on its right edge (and only there: strict never hits where exact tenths
     miss). Right edge: within 60 degrees of +x around the lobe centre's image (373.3, 273.3)."""
     xs, ys, gained = small_lobe_holes
@@ -127,10 +127,10 @@ def test_strict_blob_holes_are_on_the_small_lobes_right_edge(page4, small_lobe_h
 
 
 @pytest.mark.xfail(strict=True, reason="the port counts 199 such rays (198 misses and one later "
-                   "hit), the spec 203; the difference is not explained yet (see the report of "
+                   "hit), facts.md F14.6 203; the difference is not explained yet (see the report of "
                    "issue 12)")
 def test_strict_blob_hole_count_is_203(small_lobe_holes):
-    """Spec fact (Corrections): of the 640x480 pinhole primary rays (sub-sample (0, 0), no
+    """Fact (facts.md F14.6): of the 640x480 pinhole primary rays (sub-sample (0, 0), no
     lens), 203 pass through the small blob lobe behind the yellow sphere without hitting it.
     Counted as the rays whose exact-tenths blob hit is nearest the small lobe's source and that
     strict does not hit there (blob alone: the yellow sphere is in front of most of them)."""

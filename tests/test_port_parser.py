@@ -1,4 +1,4 @@
-"""The port's scene parser (spec 1): syntax, defaults, errors with file:line, warnings."""
+"""The port's scene parser (facts.md F1): syntax, defaults, errors with file:line, warnings."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def test_defaults(tmp_path):
     assert (scene.tonemap.midpoint, scene.tonemap.power, scene.tonemap.black) == (0.6, 3.0, 0.1)
     assert scene.complexity == 1 and scene.cubemap.faces is None
     assert not scene.cubemap.exposed and scene.cubemap.exposure == 1.0
-    # page 4's orthographic mode is broken (spec 3): said in a warning
+    # page 4's orthographic mode is broken (facts.md F13): said in a warning
     assert any("Perspective.Type" in w for w in scene.warnings)
 
 

@@ -1,4 +1,4 @@
-"""The port's renderer against the original output, closed forms and the spec's rules."""
+"""The port's renderer against the original output, closed forms and the rules of facts.md."""
 
 from __future__ import annotations
 
@@ -447,7 +447,7 @@ def test_tone_curve_is_defined_for_huge_and_infinite_radiance():
 
 
 def test_non_finite_radiance_and_black_probes_are_reported(tmp_path):
-    """A NaN radiance becomes byte 0 and black probes give E = -1 (spec 2.5), which tone-maps
+    """A NaN radiance becomes byte 0 and black probes give E = -1 (facts.md F6.3), which tone-maps
     whatever they missed from negative values: the render says so in its warnings."""
     scene = ref.parse_scene(write_scene(
         tmp_path, "1.3", "Image.Width = 24;\nImage.Height = 24;\nPerspective.Type = conic;\n"

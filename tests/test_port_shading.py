@@ -1,4 +1,4 @@
-"""Unit checks of the port's page-4 shading pieces against the formulas of spec 2.6-2.9."""
+"""Unit checks of the port's page-4 shading pieces against the formulas of facts.md F7-F10."""
 
 from __future__ import annotations
 
@@ -95,7 +95,7 @@ def test_two_spheres_at_the_same_distance_go_to_the_first_unless_ties_last(tmp_p
 
 
 def test_refraction_at_near_normal_incidence_keeps_its_length_only_in_strict():
-    """Spec 2.7: cosI >= 0.999 forces cosT = 1, so (n1/n2)(d + cosI n) - n has length
+    """facts.md F8: cosI >= 0.999 forces cosT = 1, so (n1/n2)(d + cosI n) - n has length
     sqrt(1 + (n1/n2)^2 sin^2 I), not 1, and the original's next intersection takes it as unit
     (the tutorial's blob code: A = 1.0f). Strict keeps that length; clean normalizes. Elsewhere
     Snell's law makes it unit in both."""

@@ -253,7 +253,7 @@ def test_cubemap_outputs_are_finite(llvm, size, mode, srgb, exposed, exposure, s
             "to_world": mi.ScalarTransform4f().rotate([1 / 3, 2 / 3, 2 / 3], angle), **faces}
     if mode == "background":
         spec["sampling_weight"] = 1.0
-    # the tutorial's 'exposed' decode -ln(1.001 - c) is negative for c < 0.001 (spec 2.11)
+    # the tutorial's 'exposed' decode -ln(1.001 - c) is negative for c < 0.001 (facts.md F12.4)
     check_emitter(mi, mi.load_dict(spec), rng, nonnegative=not exposed)
 
 

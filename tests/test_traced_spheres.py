@@ -1,7 +1,7 @@
 """``tutorialpath``'s own ray queries against a scene of spheres
 (``codermind.integrators._spheres``), checked against Mitsuba's ``scene.ray_intersect`` and
 ``scene.ray_test`` through Embree (external evidence: Mitsuba's own sphere), and the tie rule
-against the tutorial's (spec 2.3: the first sphere listed wins a tie)."""
+against the tutorial's (facts.md F4.1: the first sphere listed wins a tie)."""
 
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def test_shadow_tests_are_mitsubas(llvm):
 
 
 def test_a_tie_goes_to_the_first_sphere_listed(llvm):
-    """[spec 2.3] Two spheres mirrored about the plane x = 0, a ray along that plane meets
+    """[facts.md F4.1] Two spheres mirrored about the plane x = 0, a ray along that plane meets
     both at exactly the same t: the first listed is hit, whichever it is."""
     mi = llvm
     from codermind.integrators._spheres import Spheres

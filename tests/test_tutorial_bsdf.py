@@ -1,6 +1,6 @@
 """The tutorial material with the built-in ``path`` integrator and the falloff-free point
 light: closed-form pixels (Lambert + Blinn), a mirror, and the page-4 Fresnel roulette in
-expectation. Expected values are computed here in numpy float64 from the spec's formulas
+expectation. Expected values are computed here in numpy float64 from the formulas of facts.md F8
 (hit points from the position AOV or from analytic spheres)."""
 
 from __future__ import annotations
@@ -117,7 +117,7 @@ def _shade(p, n, view, diffuse, specular, power):
 
 
 def expected_radiance(o, d, depth=0, model="tutorial"):
-    """Expected value of one path sample: the clean roulette of spec 2.7, written as the
+    """Expected value of one path sample: the clean roulette of facts.md F8, written as the
     sum over events of probability times weight times the continuation. ``model``
     "physical" divides the weights by the probabilities instead (a wrong model, used to
     show that the test can tell)."""

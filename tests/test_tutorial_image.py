@@ -1,5 +1,5 @@
-"""The tutorial's image pipeline on the Mitsuba side (codermind.tutorial.image): spec 2.1,
-2.2 and 2.5 formulas, byte rules, the strip, the 2x2 mean after tone mapping, the comment
+"""The tutorial's image pipeline on the Mitsuba side (codermind.tutorial.image): facts.md F2,
+F3 and F6 formulas, byte rules, the strip, the 2x2 mean after tone mapping, the comment
 block; and agreement with the port's independent tonemap module."""
 
 from __future__ import annotations
@@ -169,7 +169,7 @@ def test_block_round_trip_and_errors():
 
 
 def test_agrees_with_the_port():
-    """Two implementations written from the spec independently give the same numbers."""
+    """Two implementations written from facts.md independently give the same numbers."""
     from codermind_ref import tonemap as port
     from codermind_ref.scene import Tonemap
     rng = np.random.default_rng(5)

@@ -1,5 +1,5 @@
 """The `tutorialortho` camera: the built-in orthographic camera's rays, and the tutorial's
-page-1 rays and page-2 sub-sample grid (spec §1.2, §2.2) through a full render."""
+page-1 rays and page-2 sub-sample grid (facts.md F1.2, F3) through a full render."""
 
 from __future__ import annotations
 

@@ -276,7 +276,7 @@ def test_area_light_scene_renders_in_every_variant(variant):
 def test_min_distance_decides_where_two_spheres_meet(llvm):
     """Page 1's spheres 0 and 1 cross on the plane x = 320, which the camera's column 320
     hits at exactly equal distances. With the converter's ``min_distance`` (the tutorial's
-    0.1 along the ray, spec 2.3) every sub-sample of that column equals the port's value
+    0.1 along the ray, facts.md F4.1) every sub-sample of that column equals the port's value
     with one of the two tie rules (the port is byte-exact with the original's
     expected.png); with Mitsuba's spawn offsets (``min_distance`` 0) the reflections and
     shadows that leave the crease differ (the offset moves the origin across the other
@@ -375,7 +375,7 @@ def _glass_only(text: str) -> str:
 
 @pytest.mark.parametrize("max_depth", [4, 11])
 def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
-    """[fact] spec 2.7 in float64 (tests/closed_form.py's Fresnel, written from the spec),
+    """[fact] facts.md F8 in float64 (tests/closed_form.py's Fresnel, written from facts.md F8.2),
     evaluated on the integrator's own float32 hits (scene.ray_intersect, the unbumped shading
     normal's side, rays leaving from 0.1 along their direction: the converter's
     min_distance) with the sampler's own roulette draws (a second sampler of the
@@ -391,7 +391,7 @@ def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
     scene = load(mi, _glass_only((SCENES / "page4.xml").read_text()), SCENES,
                  max_depth=max_depth, blob0_max_error=0.0865, blob_tessellate="true")
     # pinhole rays from the eye (320, 240, 0) through the blob's edge (page 4's crop
-    # 300..332 x 250..274, spec 2.2), 4 per film position (independent roulette draws each)
+    # 300..332 x 250..274, facts.md F3), 4 per film position (independent roulette draws each)
     fx, fy = np.meshgrid(np.arange(600, 664) / 2.0, np.arange(500, 548) / 2.0)
     film = np.stack([(fx.ravel() - 320) / 320, (fy.ravel() - 240) / 320, np.ones(fx.size)])
     d = np.repeat(film / np.linalg.norm(film, axis=0), 4, axis=1)
@@ -443,7 +443,7 @@ def test_clean_follows_the_spec_along_whole_glass_paths(llvm, max_depth):
         wo = np.where(reflect, v - 2 * np.sum(v * nf, axis=0) * nf,
                       t / np.linalg.norm(np.where(alive, t, 1.0), axis=0))
         wo = mi.Vector3f(*map(f32, np.where(alive, wo, v)))
-        ray = mi.Ray3f(dr.fma(wo, 0.1, si.p), wo)       # min_distance 0.1 (spec 2.3)
+        ray = mi.Ray3f(dr.fma(wo, 0.1, si.p), wo)       # min_distance 0.1 (facts.md F4.1)
 
     assert (inside_count >= min(5, max_depth - 2)).mean() > 0.3    # long paths inside the glass
     assert real.mean() > 0.01

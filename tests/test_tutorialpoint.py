@@ -1,5 +1,5 @@
 """The `tutorialpoint` light: with falloff it is built-in `point`; without, a Lambert
-sphere's pixels follow the tutorial's closed form (spec §2.6) at any light distance."""
+sphere's pixels follow the tutorial's closed form (facts.md F7) at any light distance."""
 
 from __future__ import annotations
 

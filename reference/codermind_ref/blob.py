@@ -1,4 +1,4 @@
-"""Blobs (metaballs) with the zone method of spec 2.10, solved exactly per zone.
+"""Blobs (metaballs) with the zone method of facts.md F11, solved exactly per zone.
 
 Each source i adds f(x_i), x_i = |p - c_i|^2 / R^2, f piecewise linear through the zone
 boundaries; the surface is sum f = 1. Zone k (k = 0..8) lies between the spheres of squared
@@ -10,7 +10,7 @@ The original accumulates, over the crossings sorted by t, each zone's polynomial
 its bound increment (0.2 for zone 0, 0.1 per deeper zone) as float32 running sums. With
 ``float32_sums`` (strict) this is what is done: the running bound is a float32 sum in sorted
 event order and the `< 1` test is decided on it, so a lone source's core can come out at
-0.99999994 and be skipped (holes, glass paths escaping from inside; spec 2.10). Without it
+0.99999994 and be skipped (holes, glass paths escaping from inside; facts.md F11.3). Without it
 (clean) the zone depth of each source in each interval is counted instead (entries minus exits),
 the bound is in exact tenths (a lone source's core is exactly 1 and kept) and the interval's
 polynomial is built from the cumulative SLOPE/INTERCEPT table in float64: the same polynomial up
@@ -37,7 +37,7 @@ ZONES = 9  # zone spheres 0..8 produce crossings; zone 9 is only the terminator
 # float32 increments of one zone crossing (entering zone sphere k: depth k -> k + 1). The bound
 # steps are the float32 differences of the zone bounds 0.2, 0.3, ..., 1.0 (so 0.1 only up to
 # float32 rounding): with them a lone source's core sums to exactly 1, and to 0.99999994 after
-# another source's zone 0 was entered and left in between, as spec 2.10 states (plain 0.1f
+# another source's zone 0 was entered and left in between, as facts.md F11.3 states (plain 0.1f
 # steps give 1.0000001 there and no holes).
 _BOUND_INC32 = np.diff(np.array([0.0] + [0.1 * k for k in range(2, 11)], dtype=np.float32))
 _SLOPE_INC = np.diff(SLOPE)

@@ -1,4 +1,4 @@
-"""Primary rays (spec 2.2 and 2.4) for the sub-samples of a block of pixels.
+"""Primary rays (facts.md F3 and F5) for the sub-samples of a block of pixels.
 
 Sub-sample (a, b), a, b in {0, 1}, of pixel (x, y) sits at (x + a/2, y + b/2); page 1 has one
 sample at (x, y). Orthographic rays start at (fx, fy, z0) along +z (z0 = -1000; page 4:
@@ -21,7 +21,7 @@ from .vec import normalized
 
 def inverse_projection_distance(scene: Scene) -> np.float32:
     """1/PD = 1/(0.5 W / tanf(float(pi/180) 0.5 FOV)) in float32, as the original computes it
-    (spec 2.2). Both modes use it: it is the original's camera, not a quirk (for FOV 90 it is
+    (facts.md F3). Both modes use it: it is the original's camera, not a quirk (for FOV 90 it is
     the exact 1/(W/2), where float64 would give PD = 320.00000000000006)."""
     f = np.float32
     half_angle = f(f(math.pi) / f(180.0)) * f(0.5 * scene.camera.fov)
@@ -48,7 +48,7 @@ def rays(scene: Scene, fx: np.ndarray, fy: np.ndarray, u1: np.ndarray | None = N
     w, h = scene.width, scene.height
     # the film components in float32 like the original's: where they tie exactly with the z
     # component (|x| = |z| or |y| = |z|, e.g. the probes of column 0 and row 14 for FOV 90),
-    # the cube map's face choice (spec 2.11) follows that tie in both modes, as in the original
+    # the cube map's face choice (facts.md F12) follows that tie in both modes, as in the original
     inv_pd = inverse_projection_distance(scene)
     f = np.float32
     film = np.stack(((fx - 0.5 * w).astype(f) * inv_pd, (fy - 0.5 * h).astype(f) * inv_pd,

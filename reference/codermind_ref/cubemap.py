@@ -1,4 +1,4 @@
-"""Cube-map environment lookup of spec 2.11 (page 4).
+"""Cube-map environment lookup of facts.md F12 (page 4).
 
 Face by dominant axis (ties: x, then y, then z), the per-face (u, v) table, |u|, |v|,
 bilinear fetch without a half-texel offset (i0 = int(S u), weight S u - i0, indices clamped),

@@ -152,7 +152,7 @@ def _radiance_warnings(scene: Scene, mean: np.ndarray, xs: np.ndarray, ys: np.nd
 
 
 def probe_luminance(scene: Scene, world: World, quirks: Quirks, seed: int) -> np.ndarray:
-    """Spec 2.5: luminance of 16x16 single-ray probes at (i s, j s), s = max(W, H)/16 (cell
+    """facts.md F6: luminance of 16x16 single-ray probes at (i s, j s), s = max(W, H)/16 (cell
     corners, past the image top when W > H), pinhole (no lens jitter), traced with the normal
     path code."""
     step = max(scene.width, scene.height) / PROBES
@@ -164,7 +164,7 @@ def probe_luminance(scene: Scene, world: World, quirks: Quirks, seed: int) -> np
 
 
 def auto_exposure(scene: Scene, world: World, quirks: Quirks, seed: int) -> float:
-    """The page-4 auto exposure E (spec 2.5; -1 when every probe is black)."""
+    """The page-4 auto exposure E (facts.md F6; -1 when every probe is black)."""
     return tonemap.exposure_from_probes(probe_luminance(scene, world, quirks, seed),
                                         scene.tonemap.midpoint)
 

@@ -1,4 +1,4 @@
-"""Materials of spec 2.6 and 2.9 as arrays indexed by material id: surface colour (gouraud,
+"""Materials of facts.md F7 and F10 as arrays indexed by material id: surface colour (gouraud,
 turbulence, marble; ``noise`` is gouraud) and the Perlin bump of the normal."""
 
 from __future__ import annotations

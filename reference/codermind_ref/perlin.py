@@ -1,5 +1,5 @@
 """The tutorial's version of Ken Perlin's 2002 "improved noise" in double precision,
-vectorized (spec 2.8), and the tutorial's turbulence sum.
+vectorized (facts.md F9), and the tutorial's turbulence sum.
 
 The arithmetic follows the code operation by operation (fade 6t^5-15t^4+10t^3, lerp
 a + t(b - a), grad from the low 4 bits of the hash), so scalar results are bit-identical to it:
@@ -92,7 +92,7 @@ def noise(x, y, z, gradient: str = "tutorial") -> np.ndarray:
 
 
 def turbulence(px, py, pz) -> np.ndarray:
-    """T = sum_{k=1..9} (1/k) |noise(0.05 k p)| (spec 2.6), p in world units."""
+    """T = sum_{k=1..9} (1/k) |noise(0.05 k p)| (facts.md F7.2), p in world units."""
     total = np.zeros(np.broadcast(px, py, pz).shape)
     for k in range(1, 10):
         f = k * 0.05

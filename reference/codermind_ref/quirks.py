@@ -1,4 +1,4 @@
-"""The seven quirks of the original programs that ``clean`` mode removes (spec 2.6, 2.7, 2.10).
+"""The seven quirks of the original programs that ``clean`` mode removes (facts.md F7, F8, F11).
 
 ``strict`` keeps all of them; ``clean`` none. Each can be toggled alone (``Quirks(...)``),
 which is how ``benchmarks/quirk_table.py`` measures what each one changes.
@@ -37,7 +37,7 @@ class Quirks:
     which it then crosses with index 1 (clean: n1 follows the side too, Density inside and 1
     outside, as a one-hit BSDF can do)."""
     refraction_length: bool = True
-    """page 4: where cosI >= 0.999 (cosT = 1, spec 2.7) the refracted direction
+    """page 4: where cosI >= 0.999 (cosT = 1, facts.md F8) the refracted direction
     (n1/n2)(d + cosI n) - n is not unit (up to 1 + 2e-3 long leaving glass, 1 + 2.5e-4
     entering), and the next intersection takes it as unit (the blob's A = 1.0f, the
     tutorial's code; the sphere test's b^2 - c), so the hits along it lie off the surface:

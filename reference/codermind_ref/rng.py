@@ -1,8 +1,8 @@
 """Random numbers for page 4: seeded numpy Generators, one stream per image row.
 
 The original draws ``rand()`` in program order; that sequence cannot be reproduced (it is
-glibc's or MSVC's), only its distribution (spec 3). The port gives every ray a fixed block of
-DRAWS uniforms in [0, 1): index 0, 1 = the lens offsets u1, u2 (spec 2.4), index 2 + k = the
+glibc's or MSVC's), only its distribution (facts.md F15). The port gives every ray a fixed block of
+DRAWS uniforms in [0, 1): index 0, 1 = the lens offsets u1, u2 (facts.md F5), index 2 + k = the
 roulette draw of segment k (k = 0..9). A slot a ray does not need is skipped, not shifted, so
 strict and clean use the same numbers for the same events.
 

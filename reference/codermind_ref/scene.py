@@ -1,4 +1,4 @@
-"""Scene files of the tutorial programs (spec section 1) as plain dataclasses.
+"""Scene files of the tutorial programs (facts.md F1) as plain dataclasses.
 
 ``parse_scene(path) -> Scene`` accepts the versions of pages 1, 2 and 4:
 

@@ -1,4 +1,4 @@
-"""Direct lighting at a hit (spec 2.6): point lights without falloff, shadows, Lambert and
+"""Direct lighting at a hit (facts.md F7): point lights without falloff, shadows, Lambert and
 Blinn. Nothing is added for a light with L.n <= 0 or a blocked shadow ray."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Ray-sphere intersection of spec 2.3, for rays as (3, N) arrays with unit directions."""
+"""Ray-sphere intersection of facts.md F4.1, for rays as (3, N) arrays with unit directions."""
 
 from __future__ import annotations
 

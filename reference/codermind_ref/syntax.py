@@ -1,4 +1,4 @@
-"""The tutorial scene syntax (spec 1.1): ``Name { Key = value; ... }`` with ``//`` comments.
+"""The tutorial scene syntax (facts.md F1.1): ``Name { Key = value; ... }`` with ``//`` comments.
 
 Every line is cut at its first ``//``, then spaces, tabs, CR and LF are removed everywhere and
 the file becomes one string; a map from each remaining character to its source line is kept

@@ -1,4 +1,4 @@
-"""Uncompressed 24-bit TGA: the cube-map face loader of spec 2.11 and the output writer of 2.1.
+"""Uncompressed 24-bit TGA: the cube-map face loader of facts.md F12 and the output writer of 2.1.
 
 Reading follows the original loader: only header byte 2 (image type, must be 2) and bytes
 12-15 (width, height) are used and pixels are taken in stored order (row 0 = first stored row,

@@ -1,4 +1,4 @@
-"""Exposure, tone curve, sRGB, bytes and the calibration strip (spec 2.1, 2.5).
+"""Exposure, tone curve, sRGB, bytes and the calibration strip (facts.md F2, F6).
 
 Page 1: byte = min(255 c, 255) truncated. Page 2: 1 - exp(-E c) per sub-sample (E = 1), mean of
 the 4, sRGB, bytes. Page 4: E c per sub-sample with the auto exposure E, the tone curve, mean of
@@ -23,8 +23,8 @@ def curve(c: np.ndarray, tm: Tonemap) -> np.ndarray:
 
     Where c^P overflows (c >= 1e103 for P = 3, 1e31 for P = 10, and c = inf) the formula's
     inf / inf would give NaN, a black pixel; there the same quotient is evaluated as
-    S c / (1 + Black / c^(P-1)), which tends to the curve's limit 1 (white). The spec does not
-    say in which precision the original computed the curve, so where it overflowed is unknown;
+    S c / (1 + Black / c^(P-1)), which tends to the curve's limit 1 (white). facts.md F6.2 does
+    not say in which precision the original computed the curve, so where it overflowed is unknown;
     no tutorial scene comes near.
     """
     if tm.black > 0:

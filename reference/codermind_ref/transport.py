@@ -4,7 +4,7 @@ Pages 1 and 2 (:func:`whitted`): shade every hit with the lights, then continue 
 mirror direction with coef *= Reflection, while coef > 0 and fewer than 10 segments; a miss
 is black.
 
-Page 4 (:func:`roulette`, spec 2.7): at each hit the Fresnel reflectance R gives
+Page 4 (:func:`roulette`, facts.md F8): at each hit the Fresnel reflectance R gives
 Rf = Reflection R and Tr = Refraction (1 - R) (R = 1 for "metals", Density 0); one uniform u
 per segment picks reflect (u <= Rf; coef *= Reflection), refract (u <= Rf + Tr;
 coef *= Refraction) or a diffuse event, which outside an object shades with the lights and
@@ -97,7 +97,7 @@ def _decide(u: np.ndarray, rf: np.ndarray, tr: np.ndarray) -> np.ndarray:
 
 def refracted(d: np.ndarray, n: np.ndarray, cos_i: np.ndarray, cos_t: np.ndarray,
               ratio: np.ndarray, quirks: Quirks) -> np.ndarray:
-    """(n1/n2)(d + cosI n) - cosT n (spec 2.7; n faces the ray): unit by Snell's law, except
+    """(n1/n2)(d + cosI n) - cosT n (facts.md F8; n faces the ray): unit by Snell's law, except
     where cosI >= 0.999 forced cosT = 1; ``refraction_length`` keeps that length (the original),
     clean normalizes."""
     out = ratio * (d + cos_i * n) - cos_t * n

@@ -1,5 +1,5 @@
 """Make the bundled cube-map faces: Mitsuba's `sunsky` over a plain ground, sampled on the
-six faces with the face orientation and (u, v) formulas of the tutorial (TUTORIAL_SPEC 2.11).
+six faces with the face orientation and (u, v) formulas of the tutorial (facts.md F12).
 
 Writes, next to this script:
 - ``sky{up,down,right,left,forward,backward}.tga``: 24-bit TGAs encoded as the tutorial's

@@ -3,8 +3,8 @@
 Both are sums over sources of a decreasing function f of ``x = |p - c|^2 / R^2``; the
 surface is where the sum equals 1.
 
-* ``tutorial``: the piecewise-linear zone field of the Codermind tutorial (TUTORIAL_SPEC
-  section 2.10): f is linear in x between the zone boundaries ``x = 10/(k+1)``, through
+* ``tutorial``: the piecewise-linear zone field of the Codermind tutorial (facts.md
+  F11): f is linear in x between the zone boundaries ``x = 10/(k+1)``, through
   (10, 0), (5, 0.2), (10/3, 0.3), ..., (10/9, 0.9), (1, 1), f = 0 for x >= 10, and the
   innermost segment ``1.9 - 0.9 x`` continues for x < 1. (The tutorial's code stores the
   boundaries rounded, 3.33333, 1.1111 and so on, which moves them by at most 1e-5 and makes
@@ -128,7 +128,7 @@ class BlobField:
 
     # -- shading ------------------------------------------------------------------------
     def inverse_square_gradient(self, p: np.ndarray) -> np.ndarray:
-        """The tutorial's shading normal (spec 2.10), unnormalized and pointing out:
+        """The tutorial's shading normal (facts.md F11), unnormalized and pointing out:
         sum R^2/|p-c|^4 (p - c), skipping sources with |p - c|^2 <= NORMAL_SKIP R^2."""
         out = np.zeros_like(p)
         for i, c in enumerate(self.centers):

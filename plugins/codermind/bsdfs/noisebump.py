@@ -36,7 +36,7 @@ class NoiseBumpBSDF(mi.BSDF):
 
      * - gradient
        - |string|
-       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+       - Gradient function of the noise (facts.md F9.2): ``tutorial``, the tutorial's own, or
          ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
          (Default: ``tutorial``)
 
@@ -57,7 +57,7 @@ class NoiseBumpBSDF(mi.BSDF):
          normal, as Mitsuba's :monosp:`normalmap` does (no light through the surface).
          The tutorial does not do this (Default: |false|)
 
-    The tutorial's bump mapping (spec 2.9) as a wrapper around any BSDF, in the manner of
+    The tutorial's bump mapping (facts.md F10) as a wrapper around any BSDF, in the manner of
     Mitsuba's :monosp:`normalmap`: the nested BSDF is evaluated and sampled in a
     perturbed shading frame whose normal is
 

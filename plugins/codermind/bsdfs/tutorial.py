@@ -100,7 +100,7 @@ class TutorialBSDF(mi.BSDF):
 
     - pages 1 and 2: if ``reflection`` > 0 the mirror direction with weight
       ``reflection`` (probability 1), else an invalid sample (weight 0) that ends the path;
-    - page 4 (spec 2.7): with :math:`\cos\theta_i = |\omega_i \cdot n|` for the facing
+    - page 4 (facts.md F8): with :math:`\cos\theta_i = |\omega_i \cdot n|` for the facing
       (possibly bumped) normal, :math:`n_1 = 1, n_2 = \mathtt{density}` in front of
       ``si.n`` and :math:`n_1 = \mathtt{density}, n_2 = 1` behind it: Fresnel
       :math:`R` (:math:`((n_1 - n_2)/(n_1 + n_2))^2` and :math:`\cos\theta_t = 1` for
@@ -129,7 +129,7 @@ class TutorialBSDF(mi.BSDF):
     tutorial's 10 segments) and ``rr_depth`` >= ``max_depth`` (Russian roulette is
     unbiased but adds noise, and the tutorial has none). Not reproduced (clean model):
     the tutorial applies its path coefficient twice to turbulence and marble lighting
-    (spec 2.6); its inside re-draws count against the 10-segment limit; it adds the cube
+    (facts.md F7); its inside re-draws count against the 10-segment limit; it adds the cube
     map along the next direction when the segment limit is reached; it carries the Fresnel
     index :math:`n_1` along the path (a BSDF sees one hit: here :math:`n_1` follows the
     side, ``density`` behind ``si.n``, 1 in front; they differ only where the side test
@@ -201,7 +201,7 @@ class TutorialBSDF(mi.BSDF):
         return dr.dot(si.n, si.sh_frame.to_world(si.wi)) < 0
 
     def _fresnel(self, cos_i: mi.Float, inside: mi.Bool):
-        """Spec 2.7, step 1-2: reflectance R, cos_t and n1/n2."""
+        """facts.md F8, step 1-2: reflectance R, cos_t and n1/n2."""
         if self.metal:
             return mi.Float(1.0), mi.Float(1.0), mi.Float(1.0)
         density = kernel_value(self, "density")
@@ -340,7 +340,7 @@ class TutorialBSDF(mi.BSDF):
         return bs, mi.Spectrum(weight) & ok
 
     #: Per-hit quantities the ``tutorial`` integrator's strict mode reads through
-    #: ``eval_attribute_1`` (the path state a one-hit BSDF cannot keep, spec 2.6-2.7).
+    #: ``eval_attribute_1`` (the path state a one-hit BSDF cannot keep, facts.md F7-F8).
     ATTRIBUTES = ("tutorial_page", "tutorial_textured", "tutorial_inside", "tutorial_density",
                   "tutorial_refraction", "tutorial_events")
 

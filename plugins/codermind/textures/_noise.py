@@ -2,7 +2,7 @@
 float32, vectorized; shared by the ``perlin``, ``turbulence`` and ``marble`` textures and the
 ``noisebump`` BSDF.
 
-Two gradient functions (spec 2.8), chosen per plugin by its ``gradient`` parameter:
+Two gradient functions (facts.md F9), chosen per plugin by its ``gradient`` parameter:
 
 - ``"tutorial"`` (the default): the tutorial's own ``grad``, u = x if h < 8 or h is 12 or 13
   else y; v = y if h < 4 or h is 12 or 13 else z;

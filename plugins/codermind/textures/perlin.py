@@ -30,7 +30,7 @@ class PerlinTexture(SolidTexture):
 
      * - gradient
        - |string|
-       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+       - Gradient function of the noise (facts.md F9.2): ``tutorial``, the tutorial's own, or
          ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
          (Default: ``tutorial``)
 

@@ -37,7 +37,7 @@ class TurbulenceTexture(TurbulenceBase):
 
      * - gradient
        - |string|
-       - Gradient function of the noise (spec 2.8): ``tutorial``, the tutorial's own, or
+       - Gradient function of the noise (facts.md F9.2): ``tutorial``, the tutorial's own, or
          ``reference``, Ken Perlin's 2002 reference; they differ for hashes 13 and 14
          (Default: ``tutorial``)
 
@@ -63,7 +63,7 @@ class TurbulenceTexture(TurbulenceBase):
     (non-differentiable).
 
     The tutorial multiplies the lighting of turbulence and marble surfaces by its path
-    weight twice (a quirk, spec 2.6); this texture is only the colour, and the
+    weight twice (a quirk, facts.md F7); this texture is only the colour, and the
     :monosp:`tutorial` BSDF applies path weights once, as for every other material.
 
     .. tabs::

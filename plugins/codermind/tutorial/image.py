@@ -1,4 +1,4 @@
-"""The tutorial's image pipeline on the Mitsuba side (TUTORIAL_SPEC 2.1, 2.2, 2.5).
+"""The tutorial's image pipeline on the Mitsuba side (facts.md F2, F3, F6).
 
 A converted tutorial scene renders the tutorial's sub-samples as film pixels: page 1 one
 sample per pixel on a W x H film, pages 2 and 4 the 2x2 sub-sample grid on a 2W x 2H film
@@ -22,7 +22,7 @@ The auto exposure is E = -ln(1 - Midpoint) / sqrt(mean L^2) over the luminances 
 16 x 16 probe rays (:func:`probe_positions`; E = -1 when that mean is 0, as the original);
 :mod:`codermind.tutorial.render` traces the probes through Mitsuba.
 
-This module is written from the spec independently of the port's ``tonemap`` (the two are
+This module is written from facts.md independently of the port's ``tonemap`` (the two are
 compared by the tests); it uses numpy only.
 
 The settings travel in the converted XML as one comment block that Mitsuba ignores and
@@ -46,7 +46,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-#: Luminance weights of the tutorial's auto exposure (spec 2.5).
+#: Luminance weights of the tutorial's auto exposure (facts.md F6.3).
 LUMINANCE = np.array([0.2126, 0.715160, 0.072169])
 #: Probe grid size per axis.
 PROBES = 16

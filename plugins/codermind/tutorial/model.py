@@ -29,7 +29,7 @@ the roulette is random: every material's events are certain (a metal with ``Refl
 1, density 1 -- Fresnel R = 0 -- with ``Refraction`` 0 or 1, or neither reflection nor
 refraction). Then one sample per sub-sample is exact. Otherwise the scene's ``Complexity``:
 the tutorial tone-maps the mean of Complexity rays per sub-sample, and the tone curve is not
-linear, so another count changes the expected image, not only its noise (spec 2.5: Complexity
+linear, so another count changes the expected image, not only its noise (facts.md F6.2: Complexity
 256 is 2.7/255 brighter on average than Complexity 1).
 
 **Blob tessellation.** ``max_error`` = ``BLOB_FRACTION`` of a film pixel's footprint at the
@@ -64,7 +64,7 @@ BLOB_FRACTION = 1.0 / 16.0
 #: |Perlin improved noise| <= this (about 1.04 is reached); with the 9 octaves' weights 1/k.
 NOISE_BOUND = 1.1
 TURBULENCE_BOUND = NOISE_BOUND * sum(1.0 / k for k in range(1, 10))
-#: The zone field's knots (x = d^2/R^2, f) from x = 10 down to 1 (spec 2.10).
+#: The zone field's knots (x = d^2/R^2, f) from x = 10 down to 1 (facts.md F11.1).
 ZONE_KNOTS = ((10.0, 0.0), (5.0, 0.2), (10 / 3, 0.3), (2.5, 0.4), (2.0, 0.5), (5 / 3, 0.6),
               (10 / 7, 0.7), (1.25, 0.8), (10 / 9, 0.9), (1.0, 1.0))
 VARIANT = "llvm_ad_rgb"

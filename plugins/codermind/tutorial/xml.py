@@ -396,7 +396,7 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
                   spp: int | None = None) -> None:
     cam = scene.camera
     w.open("sensor", note, type="conic", id=sid)
-    w.string("lens", "tutorial", "square aperture [0, D]^2, focus sphere (spec 2.4)")
+    w.string("lens", "tutorial", "square aperture [0, D]^2, focus sphere (facts.md F5)")
     w.float("fov", cam.fov, "horizontal; " + src.note("Scene", "Perspective.FOV"))
     if aperture and cam.dispersion > 0:
         w.float("aperture", cam.dispersion, src.note("Scene", "Perspective.Dispersion"))
@@ -472,7 +472,7 @@ def _cubemap(w: _Writer, src: _Source, scene, folder: Path | None) -> None:
 
 
 INTEGRATORS = ("tutorialpath", "path")
-#: tutorialpath's min_distance: the tutorial's sphere epsilon (spec 2.3)
+#: tutorialpath's min_distance: the tutorial's sphere epsilon (facts.md F4.1)
 MIN_DISTANCE = 0.1
 QUIRKS = ("clean", "strict")
 
@@ -496,7 +496,7 @@ def _integrator(w: _Writer, integrator: str, page: int, blobs: bool = False) -> 
                   "leaving them without Mitsuba's spawn offset, as the original's (false: the "
                   "mesh's hits, as path sees them)")
     w.leaf("float", "rays leave hits from the tutorial's sphere epsilon along their direction "
-           "(spec 2.3), not by Mitsuba's normal offset: where two spheres meet, as page 1's at "
+           "(facts.md F4.1), not by Mitsuba's normal offset: where two spheres meet, as page 1's at "
            "x = 320", name="min_distance", value="$min_distance")
     w.string("quirks", "$quirks", "clean: path's expectation; strict: the original's quirks"
              + (" (page 1 has none)" if page == 1 else ""))
@@ -583,14 +583,14 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
         w.blank()
         _conic_sensor(w, src, scene, "probes", (scene.width, scene.height), False, False,
                       "probe", "W x H: sample2 = (x / W, 1 - y / H) for tutorial pixel (x, y)",
-                      "the auto-exposure probes (spec 2.5): pinhole rays, not rendered")
+                      "the auto-exposure probes (facts.md F6.3): pinhole rays, not rendered")
     else:
         _ortho_sensor(w, scene, "camera", -10000.0, size, True, "fixed", film_note,
                       f"{scene_note}: page 4's orthographic mode: rays from z = -10000, t < 2000")
         w.blank()
         _ortho_sensor(w, scene, "probes", -1000.0, (scene.width, scene.height), False, "probe",
                       "W x H: sample2 = (x / W, 1 - y / H) for tutorial pixel (x, y)",
-                      "the auto-exposure probes (spec 2.5) start at z = -1000; not rendered")
+                      "the auto-exposure probes (facts.md F6.3) start at z = -1000; not rendered")
     w.blank()
 
     for m in scene.materials:
@@ -628,7 +628,7 @@ def convert(scene, xml_path: str | os.PathLike | None, model: Model,
             w.point(f"center{k}", c, src.note(sec, key) + ("" if src.has(sec, key)
                                                             else ": the origin, as the original"))
         w.float("radius", b.size, src.note(sec, "Size"))
-        w.string("field", "tutorial", "the piecewise-linear zone field (spec 2.10)")
+        w.string("field", "tutorial", "the piecewise-linear zone field (facts.md F11)")
         w.leaf("float", "largest mesh-to-surface distance, world units", name="max_error",
                value=f"$blob{b.index}_max_error")
         w.leaf("boolean", "false: no mesh, only tutorialpath sees it", name="tessellate",

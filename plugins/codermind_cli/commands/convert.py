@@ -46,7 +46,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "hit, one render) or Mitsuba's built-in path (one light per hit)")
     p.add_argument("--quirks", choices=("clean", "strict"), default="clean",
                    help="tutorialpath: clean (default; path's expectation) or strict (the "
-                        "original programs' quirks, spec 2.6-2.7)")
+                        "original programs' quirks, facts.md F7-F8)")
     p.add_argument("-q", "--quiet", action="store_true", help="print neither model nor notes")
 
 
