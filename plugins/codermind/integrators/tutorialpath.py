@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exact_surface import ExactSurface
 from ..exposed import exposed, take_float, take_int
 from ..masks import logical_not as _not
 from ._spheres import Spheres
@@ -223,22 +224,23 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                                      f"{shape.id()!r} has {type(bsdf).__name__}")
         return delta, bool(sampled)
 
-    def _exact_shapes(self, scene: mi.Scene) -> list:
-        """The scene's shapes that can move a hit onto their exact surface."""
+    def _exact_shapes(self, scene: mi.Scene) -> list[ExactSurface]:
+        """The scene's meshes that can move a hit onto their exact surface
+        (:class:`~codermind.exact_surface.ExactSurface` with a mesh)."""
         if not self.exact_hits:
             return []
-        return [s for s in scene.shapes() if hasattr(s, "exact_hit")
-                and getattr(s, "tessellated", True)]
+        return [s for s in scene.shapes() if isinstance(s, ExactSurface) and s.tessellated]
 
     @staticmethod
-    def _analytic_shapes(scene: mi.Scene) -> list:
-        """The scene's shapes without a mesh that intersect rays themselves (a
-        :monosp:`blob` with ``tessellate`` = ``false``)."""
-        return [s for s in scene.shapes() if hasattr(s, "analytic_hit")
-                and not getattr(s, "tessellated", True)]
+    def _analytic_shapes(scene: mi.Scene) -> list[ExactSurface]:
+        """The scene's shapes without a mesh whose exact surface is intersected here
+        (:class:`~codermind.exact_surface.ExactSurface` without a mesh: a :monosp:`blob`
+        with ``tessellate`` = ``false``)."""
+        return [s for s in scene.shapes() if isinstance(s, ExactSurface)
+                and not s.tessellated]
 
     @staticmethod
-    def _analytic(analytic: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool,
+    def _analytic(analytic: list[ExactSurface], ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool,
                   strict: bool = False) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
         """``si`` replaced where a shape of ``analytic`` lies in front of it along ``ray``
         (beyond the tutorial's blob epsilon: rays leave their points without an offset),
@@ -256,7 +258,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return si, hit
 
     @staticmethod
-    def _occluded(analytic: list, ray: mi.Ray3f, active: mi.Bool, strict: bool = False
+    def _occluded(analytic: list[ExactSurface], ray: mi.Ray3f, active: mi.Bool, strict: bool = False
                   ) -> mi.Bool:
         """Lanes whose shadow ray ``ray`` meets a shape of ``analytic`` before its maxt."""
         blocked = mi.Bool(False)
@@ -266,7 +268,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return blocked
 
     @staticmethod
-    def _refine(exact: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
+    def _refine(exact: list[ExactSurface], ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
                 ) -> tuple[mi.SurfaceInteraction3f, mi.Bool, mi.UInt32]:
         """``si`` moved onto the exact surface of the shape it hit, if that shape is one of
         ``exact``; the lanes whose hit is the surface the ray leaves; which shape of
