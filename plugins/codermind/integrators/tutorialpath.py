@@ -59,7 +59,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
      * - exact_hits
        - |bool|
-       - Move every hit on a shape that knows its exact surface (the :monosp:`blob`
+       - Move every hit on a shape that knows its exact surface (one that implements
+         ``codermind.exact_surface.ExactSurface`` with a mesh: the :monosp:`blob`
          mesh) from the mesh onto that surface (``Blob.exact_hit``: a few Newton steps
          along the ray): position, normals and ``wi``; rays leave from there. A mesh hit
          whose exact crossing lies within the tutorial's blob epsilon of the ray's origin
@@ -99,11 +100,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       is non-zero (none inside the tutorial's glass, none on a pure mirror);
     - the path continues with the BSDF's own ``sample`` (the tutorial material's
       roulette) and its weight; there is no Russian roulette (the tutorial has none);
-    - a :monosp:`blob` with ``tessellate`` = ``false`` has no mesh: every ray and shadow
-      ray is intersected with its zone field directly (``Blob.analytic_hit``, the first
-      crossing beyond the tutorial's blob epsilon 0.01), the hit shaded with the
-      ``normals`` option's frame there, and rays leave it without an offset, as the
-      tutorial's (on page 4 about twice as fast as its mesh with ``exact_hits``, whose
+    - a :monosp:`blob` with ``tessellate`` = ``false`` has no mesh (an ``ExactSurface``
+      without one): every ray and shadow ray is intersected with its zone field directly
+      (``Blob.analytic_hit``, the first crossing beyond the tutorial's blob epsilon 0.01),
+      the hit shaded with the ``normals`` option's frame there, and rays leave it without
+      an offset, as the tutorial's (on page 4 about twice as fast as its mesh with ``exact_hits``, whose
       hits it matches: docs/results/integrator.md);
     - a scene whose shapes are all Mitsuba ``sphere`` shapes (and blobs without a mesh), as
       the tutorial's are, is intersected here instead of through Embree: each sphere's own
