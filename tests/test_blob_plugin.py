@@ -425,7 +425,7 @@ def test_zone_field_is_the_spec_table(llvm):
     mi = llvm
     shape = mi.load_dict(blob_dict(mi, [[0, 0, 0]], field="tutorial"))
     x = np.concatenate([np.random.default_rng(2).uniform(0.2, 12.0, 20000), ref.SPEC_X[1:]])
-    f, df = shape._zone(mi.Float(x.astype(np.float32)))
+    f, df = shape.surface.zone(mi.Float(x.astype(np.float32)))
     x32 = x.astype(np.float32).astype(np.float64)
     assert np.abs(np.array(f) - np.interp(x32, ref.SPEC_X, ref.SPEC_F, right=0.0)).max() < 1e-6
     inner = np.abs(x32[:, None] - ref.SPEC_X[None]).min(1) > 1e-4   # off the kinks

@@ -78,7 +78,7 @@ def test_fixed_seed_gives_a_bit_identical_exr(tmp_path):
 
 
 def test_pass_split_is_exact_and_seeds_are_distinct():
-    from codermind.render import pass_plan, pass_seed
+    from codermind.passes import pass_plan, pass_seed
     assert pass_plan(10, 100, pass_spp=4) == [4, 4, 2]
     assert sum(pass_plan(1000, 640 * 480)) == 1000
     seeds = {pass_seed(s, i) for s in range(20) for i in range(50)}
@@ -95,7 +95,7 @@ def test_sampler_plan_passes_are_counts_the_sampler_keeps(llvm, kind):
     """Every pass of the plan is a count that the sampler does not round up (so a pass renders
     what it counts), and the passes add up to the request."""
     mi = llvm
-    from codermind.render import sampler_plan
+    from codermind.passes import sampler_plan
     from codermind.tutorial.xml import sampler_fits
     sampler = mi.load_dict({"type": kind, "sample_count": 4})
     for spp in (16, 49, 64, 100, 256, 1024):
@@ -112,7 +112,7 @@ def test_sampler_plan_keeps_a_stratified_set_whole(llvm):
     set of 64), where the lane budget alone would split it 27 + 27 + 10; independent samples
     keep that split."""
     mi = llvm
-    from codermind.render import pass_plan, sampler_plan
+    from codermind.passes import pass_plan, sampler_plan
     pixels = 1280 * 960
     mj = mi.load_dict({"type": "multijitter", "sample_count": 4})
     iid = mi.load_dict({"type": "independent", "sample_count": 4})
@@ -124,7 +124,7 @@ def test_sampler_plan_keeps_a_stratified_set_whole(llvm):
 def test_sampler_plan_refuses_a_count_without_kept_passes(llvm):
     mi = llvm
     from codermind.errors import CodermindError
-    from codermind.render import sampler_plan
+    from codermind.passes import sampler_plan
     with pytest.raises(CodermindError, match="LowDiscrepancySampler: it rounds 49 .* up to 64"):
         sampler_plan(mi.load_dict({"type": "ldsampler", "sample_count": 4}), 49, 100)
 
@@ -134,7 +134,7 @@ def test_passes_accumulate_to_the_same_mean_as_one_render(tmp_path, llvm):
     alpha = 0.01 over all pixel channels: the accumulated passes and one single render must
     be statistically equal."""
     mi = llvm
-    from codermind.render import render_passes
+    from codermind.passes import render_passes
     from codermind.scene import load_scene
     scene = load_scene(write_scene(tmp_path, integrator=MOMENT))
     spp = 64

@@ -51,7 +51,7 @@ def test_tutorial_scene_renders(llvm, name):
 
 @pytest.mark.parametrize("name", PHYSICAL)
 def test_physical_scene_renders(llvm, name):
-    from codermind.render import render_passes
+    from codermind.passes import render_passes
     from codermind.scene import load_scene
     if not has_blob():
         pytest.skip("the blob plugin is not merged yet")

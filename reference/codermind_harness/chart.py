@@ -77,7 +77,7 @@ class MitsubaRunner:
 
     def render(self, rect, defines: dict, spp: int, seed: int, variant: str = "llvm_ad_rgb",
                variance: bool = False, label: str | None = None):
-        from codermind.render import Progress
+        from codermind.passes import Progress
         from codermind.tutorial.render import render_linear
         key, (grid, scenes, settings, load, tris) = self.get(rect, defines, variant)
         set_variant(variant)
@@ -228,7 +228,7 @@ def chart_scene(name: str, cfg: Config) -> dict:
 def chart_garden(cfg: Config) -> dict:
     """``scenes/garden.xml`` (no tutorial twin): Mitsuba's spp sweep only, at a reduced
     resolution (``-D resx/resy``), against Mitsuba at ``ref_spp`` with another seed."""
-    from codermind.render import Progress
+    from codermind.passes import Progress
     from codermind.scene import load_scene
     from codermind.tutorial.image import srgb_encode
     from codermind.tutorial.render import render_linear

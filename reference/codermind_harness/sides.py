@@ -299,7 +299,7 @@ def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float |
     """The grid rendered from ``xml``; with ``exposure_seeds`` (page 4) also the auto
     exposure of the XML's probes for each of those seeds; with ``iid`` with the
     ``independent`` sampler (:func:`iid_sampler_xml`)."""
-    from codermind.render import Progress
+    from codermind.passes import Progress
     from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
     from .cluster import current
     if current() is not None:       # one task on a worker, which keeps the loaded scene

@@ -3,6 +3,7 @@ from __future__ import annotations  # Delayed parsing of type annotations
 import drjit as dr
 import mitsuba as mi
 
+from ..exact_surface import ExactSurface
 from ..exposed import exposed, take_float, take_int
 from ..masks import logical_not as _not
 from ._spheres import Spheres
@@ -58,7 +59,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
      * - exact_hits
        - |bool|
-       - Move every hit on a shape that knows its exact surface (the :monosp:`blob`
+       - Move every hit on a shape that knows its exact surface (one that implements
+         ``codermind.exact_surface.ExactSurface`` with a mesh: the :monosp:`blob`
          mesh) from the mesh onto that surface (``Blob.exact_hit``: a few Newton steps
          along the ray): position, normals and ``wi``; rays leave from there. A mesh hit
          whose exact crossing lies within the tutorial's blob epsilon of the ray's origin
@@ -98,11 +100,11 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       is non-zero (none inside the tutorial's glass, none on a pure mirror);
     - the path continues with the BSDF's own ``sample`` (the tutorial material's
       roulette) and its weight; there is no Russian roulette (the tutorial has none);
-    - a :monosp:`blob` with ``tessellate`` = ``false`` has no mesh: every ray and shadow
-      ray is intersected with its zone field directly (``Blob.analytic_hit``, the first
-      crossing beyond the tutorial's blob epsilon 0.01), the hit shaded with the
-      ``normals`` option's frame there, and rays leave it without an offset, as the
-      tutorial's (on page 4 about twice as fast as its mesh with ``exact_hits``, whose
+    - a :monosp:`blob` with ``tessellate`` = ``false`` has no mesh (an ``ExactSurface``
+      without one): every ray and shadow ray is intersected with its zone field directly
+      (``Blob.analytic_hit``, the first crossing beyond the tutorial's blob epsilon 0.01),
+      the hit shaded with the ``normals`` option's frame there, and rays leave it without
+      an offset, as the tutorial's (on page 4 about twice as fast as its mesh with ``exact_hits``, whose
       hits it matches: docs/results/integrator.md);
     - a scene whose shapes are all Mitsuba ``sphere`` shapes (and blobs without a mesh), as
       the tutorial's are, is intersected here instead of through Embree: each sphere's own
@@ -223,22 +225,23 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                                      f"{shape.id()!r} has {type(bsdf).__name__}")
         return delta, bool(sampled)
 
-    def _exact_shapes(self, scene: mi.Scene) -> list:
-        """The scene's shapes that can move a hit onto their exact surface."""
+    def _exact_shapes(self, scene: mi.Scene) -> list[ExactSurface]:
+        """The scene's meshes that can move a hit onto their exact surface
+        (:class:`~codermind.exact_surface.ExactSurface` with a mesh)."""
         if not self.exact_hits:
             return []
-        return [s for s in scene.shapes() if hasattr(s, "exact_hit")
-                and getattr(s, "tessellated", True)]
+        return [s for s in scene.shapes() if isinstance(s, ExactSurface) and s.tessellated]
 
     @staticmethod
-    def _analytic_shapes(scene: mi.Scene) -> list:
-        """The scene's shapes without a mesh that intersect rays themselves (a
-        :monosp:`blob` with ``tessellate`` = ``false``)."""
-        return [s for s in scene.shapes() if hasattr(s, "analytic_hit")
-                and not getattr(s, "tessellated", True)]
+    def _analytic_shapes(scene: mi.Scene) -> list[ExactSurface]:
+        """The scene's shapes without a mesh whose exact surface is intersected here
+        (:class:`~codermind.exact_surface.ExactSurface` without a mesh: a :monosp:`blob`
+        with ``tessellate`` = ``false``)."""
+        return [s for s in scene.shapes() if isinstance(s, ExactSurface)
+                and not s.tessellated]
 
     @staticmethod
-    def _analytic(analytic: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool,
+    def _analytic(analytic: list[ExactSurface], ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool,
                   strict: bool = False) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
         """``si`` replaced where a shape of ``analytic`` lies in front of it along ``ray``
         (beyond the tutorial's blob epsilon: rays leave their points without an offset),
@@ -256,7 +259,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return si, hit
 
     @staticmethod
-    def _occluded(analytic: list, ray: mi.Ray3f, active: mi.Bool, strict: bool = False
+    def _occluded(analytic: list[ExactSurface], ray: mi.Ray3f, active: mi.Bool, strict: bool = False
                   ) -> mi.Bool:
         """Lanes whose shadow ray ``ray`` meets a shape of ``analytic`` before its maxt."""
         blocked = mi.Bool(False)
@@ -266,7 +269,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
         return blocked
 
     @staticmethod
-    def _refine(exact: list, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
+    def _refine(exact: list[ExactSurface], ray: mi.Ray3f, si: mi.SurfaceInteraction3f, active: mi.Bool
                 ) -> tuple[mi.SurfaceInteraction3f, mi.Bool, mi.UInt32]:
         """``si`` moved onto the exact surface of the shape it hit, if that shape is one of
         ``exact``; the lanes whose hit is the surface the ray leaves; which shape of

@@ -9,27 +9,17 @@ import mitsuba as mi
 import numpy as np
 
 from ..exposed import exposed, scalar
-from ..masks import logical_not as _not
 from ..blobmesh import BlobMeshError, build_blob_mesh, estimate_cost
 from ..blobmesh.cost import ACCURACY
-from ..blobmesh.field import INTERCEPT, NORMAL_SKIP, SLOPE
-
+from ..blobmesh.field import NORMAL_SKIP
 from ..params import check_float, loose_number
-
-# Blob._zone's closed form of the zone tables beyond the outermost zone
-assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 * k + 1) / 10)
-           < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
+from ._blob_exact import BlobSurface
 
 _CENTER = re.compile(r"center(\d+)$")
 
 #: ``max_triangles``' default: about 1 GB of the mesher's memory and up to a minute (see
 #: codermind.blobmesh.cost)
 MAX_TRIANGLES = 2_000_000
-
-# the strict walk's bound increments of zones 0..8: the float32 differences of the zone bounds
-# 0.2, 0.3, ..., 1.0 (spec 2.10: they sum to exactly 1 in a lone core)
-_BOUND_INC32 = [float(v) for v in np.diff(np.array([0.0] + [0.1 * k for k in range(2, 11)],
-                                                   dtype=np.float32))]
 
 
 def blob(props: mi.Properties) -> mi.Mesh:
@@ -276,7 +266,14 @@ class Blob(mi.Mesh):
     """The blob's triangle mesh. Mitsuba 3.9.1 cannot subclass ``mi.Shape`` from Python,
     but it can subclass ``mi.Mesh``: the object keeps the blob's own parameters and
     re-tessellates itself in ``parameters_changed`` (the mesh's buffers may change size;
-    the scene, notified after the shape, rebuilds its acceleration structure)."""
+    the scene, notified after the shape, rebuilds its acceleration structure).
+
+    It is an :class:`codermind.exact_surface.ExactSurface`: ``tessellated`` is the
+    ``tessellate`` option, and the hits on the exact surface are its :class:`BlobSurface`'s
+    (``surface``, remade with the parameters)."""
+
+    #: the tutorial's blob epsilon (ExactSurface.SELF_HIT)
+    SELF_HIT = BlobSurface.SELF_HIT
 
     def __init__(self, props: mi.Properties, centers: np.ndarray, radius: float, field: str,
                  normals: str, matrix: np.ndarray, max_error: float, tessellate: bool = True,
@@ -288,7 +285,12 @@ class Blob(mi.Mesh):
                          has_vertex_normals=normals != "flat")
         self.field, self.normals, self.matrix = field, normals, matrix
         self.centers, self.radius, self.max_error = centers, radius, max_error
+        self.surface = self._surface()
         self._set_buffers(v, f, n)
+
+    def _surface(self) -> BlobSurface:
+        return BlobSurface(self.centers, self.radius, self.field, self.normals, self.matrix,
+                           self.max_error)
 
     def _arrays(self, centers, radius, field, normals, matrix, max_error):
         if self.tessellated:
@@ -429,445 +431,31 @@ class Blob(mi.Mesh):
         to_world = mi.ScalarMatrix3f([[float(a) for a in row] for row in inv_t])
         return dr.normalize(to_world @ g)
 
-    # -- hits on the exact surface (called by the tutorialpath integrator) ----------------
-    #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
-    #: so 2 take a max_error start to float32 rounding (tests/test_blob_plugin.py)
-    REFINE_STEPS = 2
-    #: the tutorial's blob epsilon (spec 2.3, world units): a crossing this close to a ray's
-    #: origin is the surface the ray leaves (tutorialpath's exact_hits)
-    SELF_HIT = 0.01
-    #: F - 1 beyond which a ray's origin is inside the surface (``exit_hit``)
-    INSIDE_F = 1e-5
-
-    def _along(self, ray: mi.Ray3f, origin: mi.Point3f):
-        """Object-space offsets of ``origin`` from the centres, ``ray.d`` in object space
-        (an affine map keeps t) and the world normal map."""
-        linear = self.matrix[:3, :3]
-        inv = np.linalg.inv(linear)
-        shift = self.matrix[:3, 3]
-        mat = lambda m: mi.ScalarMatrix3f([[float(x) for x in row] for row in m])  # noqa: E731
-        to_obj, normal_to_world = mat(inv), mat(inv.T)
-        po = to_obj @ (mi.Vector3f(dr.detach(origin)) - mi.ScalarVector3f(*map(float, shift)))
-        do = to_obj @ mi.Vector3f(dr.detach(ray.d))
-        rel = [po - mi.ScalarVector3f(*map(float, c)) for c in self.centers]
-        return rel, do, normal_to_world
-
-    def _residual(self, rel: list, do: mi.Vector3f, s: mi.Float
-                  ) -> tuple[mi.Float, mi.Float, mi.Float]:
-        """(F - 1, dF/ds, d2F/ds2 within the zones) at ``rel + s do``."""
-        inv_r2 = 1.0 / (self.radius * self.radius)
-        value, slope, curve = mi.Float(-1.0), mi.Float(0.0), mi.Float(0.0)
-        for r in rel:
-            q = r + s * do
-            f, df = self._zone(dr.squared_norm(q) * inv_r2)
-            value += f
-            slope += df * (2.0 * inv_r2) * dr.dot(q, do)
-            curve += df * (2.0 * inv_r2) * dr.squared_norm(do)
-        return value, slope, curve
-
-    def _newton(self, rel: list, do: mi.Vector3f, s: mi.Float
-                ) -> tuple[mi.Float, mi.Float, mi.Float, mi.Float]:
-        """``REFINE_STEPS`` Newton steps on F - 1 along ``rel + s do`` from ``s``, and one
-        more only measured: (s, F - 1, dF/ds, that last step) at the result."""
-        for _ in range(self.REFINE_STEPS + 1):
-            g, slope, _ = self._residual(rel, do, s)
-            step = dr.select(slope != 0, g / dr.select(slope != 0, slope, 1.0), 0.0)
-            s = s - step
-        return s + step, g, slope, step
-
-    def _frame_at(self, rel: list, do: mi.Vector3f, s: mi.Float, normal_to_world
-                  ) -> tuple[mi.Frame3f, mi.Bool]:
-        """The ``normals`` option's shading frame at ``rel + s do`` (not ``flat``)."""
-        inv_r2 = 1.0 / (self.radius * self.radius)
-        n = mi.Vector3f(0.0)
-        for r in rel:
-            q = r + s * do
-            d2 = dr.squared_norm(q)
-            if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10; NORMAL_SKIP)
-                w = dr.select(d2 * inv_r2 > NORMAL_SKIP, self.radius ** 2 / dr.square(d2), 0.0)
-            else:                               # -grad F: outward
-                w = -self._zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
-            n += w * q
-        n = normal_to_world @ n
-        return mi.Frame3f(dr.normalize(n)), dr.squared_norm(n) > 0
-
+    # -- the exact surface (ExactSurface, called by the tutorialpath integrator) -----------
     def exact_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f,
                   active: mi.Bool) -> mi.SurfaceInteraction3f:
-        """``si`` (a hit of ``ray`` on this mesh) moved onto the exact surface, where the
-        field along the ray crosses 1 near the mesh's t: Newton's method on
-        F(o + t d) - 1 from the mesh's t, in object space (an affine map keeps t).
-
-        Changed where the iteration converges, within ``2 max_error / |cos|`` of the
-        mesh's t, on the side the mesh was hit from (the field rises along the ray where
-        it enters): ``t`` (which may come out <= 0: the crossing lies behind the ray's
-        origin), ``p``, the geometric normal ``n`` and the shading frame (the ``normals``
-        option's normal at the new point, also for ``n``; ``flat`` keeps the facet's),
-        with ``wi`` in that frame. Elsewhere (grazing rays that hit the mesh but not the
-        surface, a mesh without vertices) ``si`` is returned unchanged. The move is
-        detached: ``p`` keeps the mesh's derivatives (vertex positions), if any."""
-        if len(self.centers) == 0:
-            return si
-        rel, do, normal_to_world = self._along(ray, si.p)
-        entering = dr.dot(dr.detach(si.n), dr.detach(ray.d)) < 0
-
-        s, _, slope, step = self._newton(rel, do, mi.Float(0.0))   # its slope: the side
-        cos = dr.abs(dr.dot(dr.detach(si.n), dr.detach(ray.d)))
-        bound = 2.0 * self.max_error / dr.maximum(cos, 0.05)
-        ok = active & dr.isfinite(s) & (dr.abs(s) <= bound) & \
-            (dr.abs(step) <= 1e-3 * self.max_error + 1e-6 * dr.abs(si.t)) & \
-            ((slope > 0) == entering) & (slope != 0)
-        s = dr.select(ok, s, 0.0)
-
-        frame = si.sh_frame
-        if self.normals != "flat":
-            frame, nonzero = self._frame_at(rel, do, s, normal_to_world)
-            ok &= nonzero
-            frame = mi.Frame3f(dr.select(ok, frame.n, si.sh_frame.n))
-
-        out = mi.SurfaceInteraction3f(si)
-        out.t = dr.select(ok, si.t + s, si.t)
-        out.p = dr.select(ok, si.p + dr.detach(mi.Vector3f(ray.d)) * s, si.p)
-        if self.normals != "flat":
-            out.sh_frame = mi.Frame3f(dr.select(ok, frame.s, si.sh_frame.s),
-                                      dr.select(ok, frame.t, si.sh_frame.t),
-                                      dr.select(ok, frame.n, si.sh_frame.n))
-            out.wi = dr.select(ok, out.sh_frame.to_local(si.sh_frame.to_world(si.wi)), si.wi)
-            out.n = dr.select(ok, frame.n, si.n)
-        return out
-
-    def exit_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, limit: mi.Float,
-                 active: mi.Bool) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
-        """For rays that start inside the exact surface, or on it heading INTO it (the
-        field rises along the ray at its origin): the surface where the ray comes out,
-        if that lies beyond ``SELF_HIT`` and before ``limit`` (the ray's next trusted hit
-        in the scene; ``si`` is that hit or the miss).
-
-        It is the hit the mesh cannot give where the ray runs between the inscribed mesh
-        and the surface (a grazing reflection that a bumped normal turns slightly inwards;
-        chords shorter than about sqrt(8 R max_error)) and leaves the surface without
-        entering the mesh: the mesh lets it escape, the tutorial's roots see it come out.
-        The crossing is found where the field along the ray is a parabola within its
-        zones (the guess: the exit root of the parabola through the origin's F, F' and
-        F''), then polished by Newton's method.
-        Returns ``si`` replaced by that hit (on this shape, with the ``normals`` option's
-        frame at the new point; ``flat``: the field's normal) and the lanes replaced."""
-        if len(self.centers) == 0:
-            return si, mi.Bool(False)
-        rel, do, normal_to_world = self._along(ray, ray.o)
-        g0, slope0, curve0 = self._residual(rel, do, mi.Float(0.0))
-        # inside, or on the surface heading in. An exact point's F - 1 is only known to
-        # its float32 position (~3e-5 units at the tutorial's ~500: ~1e-6 of F), so a
-        # point counts as inside only beyond that; else a grazing ray heading OUT of an
-        # exact point would find a spurious exit a fraction of a unit on
-        inward = active & (curve0 < 0) & ((g0 > self.INSIDE_F) |
-                                          ((slope0 > 0) & (g0 > -self.INSIDE_F)))
-        disc = dr.square(slope0) - 2.0 * curve0 * dr.maximum(g0, 0.0)
-        s = dr.select(inward, (slope0 + dr.safe_sqrt(disc)) / dr.select(curve0 < 0, -curve0,
-                                                                         1.0), 0.0)
-        s, g, slope, step = self._newton(rel, do, s)
-        # grazing chords have slopes of ~1e-4 per unit: float32's rounding of F (~1e-7)
-        # then moves t by ~1e-3, so converged means a step within tolerance or F - 1 at
-        # that rounding
-        ok = inward & dr.isfinite(s) & (slope < 0) & (s > self.SELF_HIT) & (s < limit) & \
-            ((dr.abs(step) <= 1e-3 * self.max_error + 1e-6 * s) | (dr.abs(g) <= 4e-7))
-        frame, nonzero = self._frame_at(rel, do, s, normal_to_world)
-        ok &= nonzero
-        out = mi.SurfaceInteraction3f(si)
-        out.t = dr.select(ok, s, si.t)
-        out.p = dr.select(ok, dr.fma(dr.detach(mi.Vector3f(ray.d)), s, ray.o), si.p)
-        out.n = dr.select(ok, frame.n, si.n)
-        out.sh_frame = mi.Frame3f(dr.select(ok, frame.s, si.sh_frame.s),
-                                  dr.select(ok, frame.t, si.sh_frame.t),
-                                  dr.select(ok, frame.n, si.sh_frame.n))
-        out.wi = dr.select(ok, frame.to_local(-ray.d), si.wi)
-        out.dp_du = dr.select(ok, frame.s, si.dp_du)
-        out.dp_dv = dr.select(ok, frame.t, si.dp_dv)
-        out.uv = dr.select(ok, mi.Point2f(0.0), si.uv)
-        out.prim_index = dr.select(ok, 0, si.prim_index)
-        if dr.is_jit_v(mi.Float):
-            out.shape = dr.select(ok, mi.ShapePtr(self), si.shape)
-        elif ok:
-            out.shape = self
-        return out, ok
+        """:meth:`BlobSurface.exact_hit`: Newton's method from the mesh's hit."""
+        return self.surface.exact_hit(ray, si, active)
 
     def left_surface(self, ray: mi.Ray3f, mesh_si: mi.SurfaceInteraction3f,
                      exact_si: mi.SurfaceInteraction3f) -> mi.Bool:
-        """Lanes whose hit (``mesh_si`` on the mesh, ``exact_si`` from ``exact_hit``) is the
-        surface the ray leaves, for rays that leave exact points without an offset: the
-        exact crossing within ``SELF_HIT`` of the origin, or, where ``exact_hit`` found no
-        crossing, the mesh hit within ``SELF_HIT`` plus the mesh's own reach
-        (2 max_error / |cos|) of it."""
-        cos = dr.abs(dr.dot(dr.detach(mesh_si.n), dr.detach(ray.d)))
-        reach = self.SELF_HIT + 2.0 * self.max_error / dr.maximum(cos, 0.05)
-        unmoved = exact_si.t == mesh_si.t
-        return (exact_si.t <= self.SELF_HIT) | (unmoved & (mesh_si.t <= reach))
+        """:meth:`BlobSurface.left_surface`."""
+        return self.surface.left_surface(ray, mesh_si, exact_si)
 
-    # -- the analytic intersection (tessellate = false) ------------------------------------
-    def _bound_level(self) -> float:
-        """A level L with F < 1 wherever every x_i >= L: f(10/j) = 0.1 j (j >= 2), so
-        N sources outside x = 10/j give F <= 0.1 j N < 1 for j < 10/N (L = 10: F = 0)."""
-        j = max(1, math.ceil(10.0 / len(self.centers)) - 1)
-        return 10.0 / j
-
-    @staticmethod
-    def _zone_lines(x: mi.Float) -> tuple[mi.Float, mi.Float]:
-        """The zone field's line f = di + ds x at ``x``: (ds, di), (0, 0) beyond x = 10.
-        The depth k = #{j in 1..9: x <= 10/j} = min(9, floor(10/x)) picks the cumulative
-        tables' line (blobmesh.field); from k = 2 on they are the chords of 1/x (checked at
-        import), so a few operations instead of one select per zone."""
-        return Blob._lines_of(dr.clip(dr.floor(10.0 / dr.maximum(x, 1e-30)), 0.0, 9.0))
-
-    @staticmethod
-    def _field_of(x: mi.Float) -> mi.Float:
-        """One source's zone field f(x)."""
-        ds, di = Blob._zone_lines(x)
-        return dr.fma(ds, x, di)
-
-    @staticmethod
-    def _first_root(qa: mi.Float, qb: mi.Float, qg: mi.Float, lo: mi.Float, span: mi.Float
-                    ) -> mi.Float:
-        """The smallest root s of qa s^2 + qb s + qg in [lo, span] (stable form), or inf."""
-        disc = qb * qb - 4.0 * qa * qg
-        sq = dr.safe_sqrt(disc)
-        q = -0.5 * (qb + dr.select(qb >= 0, sq, -sq))
-        r1 = dr.select(qa != 0, q / dr.select(qa != 0, qa, 1.0), dr.inf)
-        r2 = dr.select(q != 0, qg / dr.select(q != 0, q, 1.0), dr.inf)
-        small, large = dr.minimum(r1, r2), dr.maximum(r1, r2)
-        return dr.select((disc >= 0) & (small >= lo) & (small <= span), small,
-                         dr.select((disc >= 0) & (large >= lo) & (large <= span), large, dr.inf))
-
-    def _quadratic(self, tcs: list, x0s: list, a: mi.Float, t0: mi.Float, t1: mi.Float
-                   ) -> tuple[mi.Float, mi.Float, mi.Float]:
-        """F - 1 = A s^2 + B s + G in s = t - t0 on [t0, t1], no zone sphere crossed inside:
-        each source's line taken at the midpoint."""
-        tm = 0.5 * (t0 + t1)
-        return self._quadratic_of(tcs, x0s, a, t0, [self._zone_lines(x0 + a * dr.square(tm - tc))
-                                                    for tc, x0 in zip(tcs, x0s)])
-
-    @staticmethod
-    def _quadratic_of(tcs: list, x0s: list, a: mi.Float, t0: mi.Float, lines: list
-                      ) -> tuple[mi.Float, mi.Float, mi.Float]:
-        """F - 1 = A s^2 + B s + G in s = t - t0 with each source on its line (ds, di)."""
-        qa, qb, qg = mi.Float(0.0), mi.Float(0.0), mi.Float(-1.0)
-        for tc, x0, (ds, di) in zip(tcs, x0s, lines):
-            u0 = t0 - tc
-            qa += ds * a
-            qb += ds * (2.0 * a * u0)
-            qg += ds * (x0 + a * u0 * u0) + di
-        return qa, qb, qg
-
-    def _approach(self, ray: mi.Ray3f):
-        """Per source: the t of closest approach and x there; a = |d|^2/R^2 (object space)."""
-        rel, do, _ = self._along(ray, ray.o)
-        a = dr.squared_norm(do) / (self.radius * self.radius)
-        inv_d2 = 1.0 / dr.squared_norm(do)
-        tcs, x0s = [], []
-        for r in rel:
-            tc = -dr.dot(r, do) * inv_d2
-            tcs.append(tc)
-            x0s.append(dr.squared_norm(r + tc * do) / (self.radius * self.radius))
-        return tcs, x0s, a
+    def exit_hit(self, ray: mi.Ray3f, si: mi.SurfaceInteraction3f, limit: mi.Float,
+                 active: mi.Bool) -> tuple[mi.SurfaceInteraction3f, mi.Bool]:
+        """:meth:`BlobSurface.exit_hit`, a hit on this shape."""
+        return self.surface.exit_hit(self, ray, si, limit, active)
 
     def analytic_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
                      active: mi.Bool = True, strict: bool = False) -> mi.Float:
-        """The ray's first crossing of the zone field's surface F = 1 in (tmin, tmax), or
-        inf. Along the ray each source's x_i = |o + t d - c_i|^2/R^2 is a parabola in t, so
-        between two consecutive zone-sphere crossings (of any source) F is a quadratic:
-        the loop walks those intervals from where the ray enters the region the surface
-        can reach and solves one quadratic per interval (stable roots).
-        ``strict``: the original's walk (spec 2.10), with its float32 running bound."""
-        if strict:
-            return self._strict_hit(ray, tmin, tmax, active)
-        return self._clean_hit(ray, tmin, tmax, active)
-
-    #: F units by which the clean walk widens the stretch of a ray where F >= 1 is possible
-    #: (the float32 rounding of each source's f is ~1e-7)
-    REACH_SLACK = 1e-4
-
-    #: spec 2.10's zone radii r^2/R^2 "as written in the code" (zones 0..8)
-    WRITTEN_RATIO = (10.0, 5.0, 3.33333, 2.5, 2.0, 1.66667, 1.42857, 1.25, 1.1111)
-
-    @dr.syntax
-    def _strict_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
-                    active: mi.Bool = True) -> mi.Float:
-        """The original's intersection (spec 2.10): every zone sphere's entry and exit,
-        walked in t order from the first (also behind the origin) with the bound increments
-        as a float32 running sum; an interval is solved only where that sum is >= 1, so a
-        lone source's core can be skipped where the sum comes out at 0.99999994 (the
-        original's holes). The increments are ``_BOUND_INC32``."""
-        tcs, x0s, a = self._approach(ray)
-        inc = _BOUND_INC32
-        events = []                      # (t, crossed, signed bound increment), walked in t order
-        total = mi.Float(0.0)            # quick reject: the entry increments, source by source
-        for tc, x0 in zip(tcs, x0s):
-            for k, level in enumerate(self.WRITTEN_RATIO):
-                crossed = x0 < level
-                total += dr.select(crossed, inc[k], 0.0)
-                h = dr.safe_sqrt((level - x0) / a)
-                events.append((tc - h, crossed, inc[k]))
-                events.append((tc + h, crossed, -inc[k]))
-        hit_t = mi.Float(dr.inf)
-        t0 = mi.Float(-dr.inf)
-        i0 = mi.Int32(-1)
-        bound = mi.Float(0.0)
-        walking = mi.Bool(active) & (total >= 1.0)
-        while walking:
-            # the next event in (t, index) order
-            t1 = mi.Float(dr.inf)
-            i1 = mi.Int32(-1)
-            step = mi.Float(0.0)
-            for e, (te, crossed, de) in enumerate(events):
-                later = crossed & ((te > t0) | ((te == t0) & (e > i0)))
-                better = later & (te < t1)
-                t1 = dr.select(better, te, t1)
-                i1 = dr.select(better, e, i1)
-                step = dr.select(better, de, step)
-            solve = (bound >= 1.0) & (t1 > t0) & (t1 > tmin) & (t0 < tmax) & dr.isfinite(t1)
-            if solve:
-                qa, qb, qg = self._quadratic(tcs, x0s, a, t0, t1)
-                s = self._first_root(qa, qb, qg, dr.maximum(tmin - t0, 0.0), t1 - t0)
-                t = t0 + s
-                hit_t = dr.select(dr.isfinite(s) & (t > tmin) & (t < t1) & (t <= tmax), t,
-                                  hit_t)
-            bound += step
-            t0 = t1
-            i0 = i1
-            walking &= _not(dr.isfinite(hit_t)) & dr.isfinite(t1) & (t0 < tmax)
-        return hit_t
-
-    @staticmethod
-    def _lines_of(k: mi.Float) -> tuple[mi.Float, mi.Float]:
-        """The zone field's line (ds, di) of zone ``k`` (0: beyond x = 10)."""
-        ds = dr.select(k == 1.0, float(SLOPE[1]), -0.01 * k * (k + 1.0))
-        di = dr.select(k == 1.0, float(INTERCEPT[1]), 0.1 * (2.0 * k + 1.0))
-        return dr.select(k == 0.0, 0.0, ds), dr.select(k == 0.0, 0.0, di)
-
-    @staticmethod
-    def _crossing(tc: mi.Float, x0: mi.Float, inv_a: mi.Float, k: mi.Float, out: mi.Bool
-                  ) -> mi.Float:
-        """A source's next zone-sphere crossing from zone ``k``: on the way in (``out``
-        false) where it enters zone k + 1, on the way out where it leaves zone k (inf
-        from zone 0)."""
-        level = 10.0 / dr.maximum(dr.select(out, k, k + 1.0), 1.0)
-        h = dr.safe_sqrt((level - x0) * inv_a)
-        return dr.select(out, dr.select(k >= 1.0, tc + h, dr.inf), tc - h)
-
-    def _clean_hit(self, ray: mi.Ray3f, tmin: float, tmax: mi.Float,
-                   active: mi.Bool = True) -> mi.Float:
-        tcs, x0s, a = self._approach(ray)
-        inv_a = 1.0 / a
-        bound = self._bound_level()
-        t_enter, t_exit = mi.Float(dr.inf), mi.Float(-dr.inf)
-        for tc, x0 in zip(tcs, x0s):
-            h = dr.safe_sqrt((bound - x0) * inv_a)
-            near = x0 < bound
-            t_enter = dr.select(near, dr.minimum(t_enter, tc - h), t_enter)
-            t_exit = dr.select(near, dr.maximum(t_exit, tc + h), t_exit)
-        # where F >= 1 is possible at all: each source contributes at most f(x0), at its
-        # closest approach, so with M = sum f(x0_i), F(t) >= 1 needs M >= 1 and every source
-        # within M - 1 of its most, f(x_i(t)) >= f(x0_i) - (M - 1): an interval of t per
-        # source whose limit is not vacuous. The walk runs on their intersection (on page 4
-        # it takes half the walk's steps, and most rays that miss take none)
-        f0s = [self._field_of(x0) for x0 in x0s]
-        excess = f0s[0] - 1.0
-        for f0 in f0s[1:]:
-            excess += f0
-        for tc, x0, f0 in zip(tcs, x0s, f0s):
-            v = f0 - excess - self.REACH_SLACK
-            ds, di = self._lines_of(dr.clip(dr.ceil(10.0 * v) - 1.0, 1.0, 9.0))
-            h = dr.safe_sqrt(((v - di) / ds - x0) * inv_a)     # f(x) = v: f's inverse
-            near = v > 0.0
-            t_enter = dr.select(near, dr.maximum(t_enter, tc - h), t_enter)
-            t_exit = dr.select(near, dr.minimum(t_exit, tc + h), t_exit)
-        t0 = dr.maximum(t_enter, tmin)
-        hi = dr.select(excess >= -self.REACH_SLACK, dr.minimum(t_exit, tmax), -dr.inf)
-        # per source: the deepest zone the ray reaches (fixed along it), the zone just past
-        # t0 (probed just beyond it), whether the ray is past that deepest zone's entry (on
-        # the way out), and the next crossing; the walk then moves one source at a time
-        probe = t0 + 1e-3
-        deeps, ks, outs, tns = [], [], [], []
-        for tc, x0 in zip(tcs, x0s):
-            deep = dr.minimum(dr.floor(10.0 / dr.maximum(x0, 1e-30)), 9.0)
-            u = probe - tc
-            k = dr.minimum(dr.floor(10.0 / dr.maximum(x0 + a * u * u, 1e-30)), deep)
-            out = (u >= 0) | (k >= deep)
-            deeps.append(deep)
-            ks.append(k)
-            outs.append(out)
-            tns.append(self._crossing(tc, x0, inv_a, k, out))
-        n = len(tcs)
-
-        def body(t0, hit_t, walking, ks, outs, tns):
-            t1 = mi.Float(hi)
-            for tn in tns:
-                t1 = dr.minimum(t1, tn)
-            # F - 1 on the interval from each source's current zone
-            qa, qb, qg = self._quadratic_of(tcs, x0s, a, t0, [self._lines_of(k) for k in ks])
-            s = self._first_root(qa, qb, qg, 0.0, t1 - t0)
-            found = dr.isfinite(s)
-            hit_t = dr.select(walking & found, t0 + s, hit_t)
-            # the source whose crossing ends the interval moves to its next zone
-            j = mi.UInt32(n)
-            for i in reversed(range(n)):
-                j = dr.select(tns[i] == t1, i, j)
-            tc_j, x0_j, k_j, out_j, deep_j = tcs[0], x0s[0], ks[0], outs[0], deeps[0]
-            for i in range(1, n):
-                on = j == i
-                tc_j = dr.select(on, tcs[i], tc_j)
-                x0_j = dr.select(on, x0s[i], x0_j)
-                k_j = dr.select(on, ks[i], k_j)
-                out_j = dr.select(on, outs[i], out_j)
-                deep_j = dr.select(on, deeps[i], deep_j)
-            k_j = dr.select(out_j, k_j - 1.0, k_j + 1.0)
-            out_j = out_j | (k_j >= deep_j)
-            tn_j = self._crossing(tc_j, x0_j, inv_a, k_j, out_j)
-            ks, outs, tns = list(ks), list(outs), list(tns)
-            for i in range(n):
-                on = walking & (j == i)
-                ks[i] = dr.select(on, k_j, ks[i])
-                outs[i] = dr.select(on, out_j, outs[i])
-                tns[i] = dr.select(on, tn_j, tns[i])
-            t0 = dr.select(walking, t1, t0)
-            walking = walking & _not(found) & (t0 < hi)
-            return t0, hit_t, walking, ks, outs, tns
-
-        walking = mi.Bool(active) & (t0 < hi)
-        state = (t0, mi.Float(dr.inf), walking, ks, outs, tns)
-        state = dr.while_loop(state, lambda t0, hit_t, walking, *_: walking, body,
-                              labels=("t0", "hit_t", "walking", "ks", "outs", "tns"),
-                              label="Blob._clean_hit")
-        return state[1]
+        """:meth:`BlobSurface.analytic_hit`: the zone walk (``field`` = ``tutorial``)."""
+        return self.surface.analytic_hit(ray, tmin, tmax, active, strict)
 
     def interaction(self, ray: mi.Ray3f, t: mi.Float, active: mi.Bool = True
                     ) -> mi.SurfaceInteraction3f:
-        """The surface interaction of ``ray`` at ``analytic_hit``'s ``t``: the ``normals``
-        option's frame there (``flat``: the field's normal), ``n`` its normal, uv 0."""
-        rel, do, normal_to_world = self._along(ray, ray.o)
-        t = dr.select(active, t, 0.0)
-        frame, _ = self._frame_at(rel, do, t, normal_to_world)
-        if dr.is_jit_v(mi.Float):
-            si = dr.zeros(mi.SurfaceInteraction3f, dr.width(t))
-            si.shape = dr.select(active, mi.ShapePtr(self), dr.zeros(mi.ShapePtr))
-        else:
-            si = mi.SurfaceInteraction3f()
-            si.shape = self
-        si.t = dr.select(active, t, dr.inf)
-        si.p = dr.fma(mi.Vector3f(dr.detach(ray.d)), t, ray.o)
-        si.n = frame.n
-        si.sh_frame = frame
-        si.wi = frame.to_local(-ray.d)
-        si.dp_du, si.dp_dv = frame.s, frame.t
-        si.uv = mi.Point2f(0.0)
-        si.time, si.wavelengths = ray.time, ray.wavelengths
-        return si
-
-    def _zone(self, x: mi.Float) -> tuple[mi.Float, mi.Float]:
-        """f(x) and f'(x) of one source (the ``field`` option)."""
-        if self.field == "exact":
-            inv = 1.0 / dr.maximum(x, 1e-30)
-            return inv, -dr.square(inv)
-        ds, di = self._zone_lines(x)
-        return di + ds * x, ds
+        """:meth:`BlobSurface.interaction`, a hit on this shape."""
+        return self.surface.interaction(self, ray, t, active)
 
     def _set_buffers(self, v, f: np.ndarray, n: np.ndarray) -> None:
         params = mi.traverse(self)
@@ -929,6 +517,7 @@ class Blob(mi.Mesh):
             v, f, n = self._arrays(flat.reshape(-1, 3), radius, self.field, self.normals,
                                    self.matrix, max_error)
             self.centers, self.radius, self.max_error = flat.reshape(-1, 3), radius, max_error
+            self.surface = self._surface()
             if self.tessellated:
                 v, n = self._attached(v, n)
             self._set_buffers(v, f, n)

@@ -50,7 +50,7 @@ import numpy as np
 
 from ..errors import CodermindError
 from ..imageio import atomic_path, write_exr, write_png_bytes
-from ..render import LANE_BUDGET, Progress, accumulate, pass_seed, sampler_plan, scene_spp
+from ..passes import LANE_BUDGET, Progress, accumulate, pass_seed, sampler_plan, scene_spp
 from ..scene import load_scene
 from .image import (ToneBlockError, ToneSettings, TutorialImage, exposure_from_luminance,
                              luminance, parse_block, probe_film_positions, tga_bytes,
@@ -212,7 +212,7 @@ def render_linear(scene: mi.Scene | list[mi.Scene], spp: int, seed: int = 0,
     if variance and spp > 1:
         k = min(spp, VARIANCE_PASSES)
         pass_spp = min(pass_spp or max(1, LANE_BUDGET // pixels), -(-spp // k))
-    # passes of counts the sampler keeps (codermind.render.sampler_plan)
+    # passes of counts the sampler keeps (codermind.passes.sampler_plan)
     plan = sampler_plan(sensor.sampler(), spp, pixels, pass_spp)
     # mi.render(spp=n) sets the sampler's sample count for good: restore it afterwards
     sampler = sensor.sampler()

@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from codermind.variants import set_variant
     set_variant(args.variant)
     from codermind.scene import load_scene
-    from codermind.render import Progress, render_passes, scene_spp
+    from codermind.passes import Progress, render_passes, scene_spp
     from codermind.imageio import write_exr, write_png_srgb
 
     scene = load_scene(scene_path, **defines)
