@@ -23,13 +23,9 @@ SKIP_DIRS = {".git", ".venv", "venv", "__pycache__", ".pytest_cache", ".hypothes
 #: "/" are folders). docs/reference/integrator-tutorialpath.md is generated from
 #: tutorialpath.py's docstring; docs/figures/stability.* are written by the harness's sweeps.
 SPEC_CITATIONS_ALLOWED = {
-    "plugins/codermind/shapes/blob.py",
-    "plugins/codermind/integrators/tutorialpath.py",
-    "plugins/codermind/tutorial/render.py",
     "reference/codermind_harness/",
     "docs/results/",
     "benchmarks/",
-    "docs/reference/integrator-tutorialpath.md",
     "docs/figures/stability.json",
     "docs/figures/stability.md",
 }

@@ -64,7 +64,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
          mesh) from the mesh onto that surface (``Blob.exact_hit``: a few Newton steps
          along the ray): position, normals and ``wi``; rays leave from there. A mesh hit
          whose exact crossing lies within the tutorial's blob epsilon of the ray's origin
-         (0.01, spec 2.3: the surface the ray left; rays leave exact points without
+         (0.01, facts.md F4.2: the surface the ray left; rays leave exact points without
          Mitsuba's spawn offset, as the tutorial's do) is passed through without shading
          or a segment. A ray that leaves an exact point into the surface and runs between
          the inscribed mesh and the surface (a grazing chord, e.g. a reflection a bump
@@ -78,7 +78,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
          (continuations and shadow rays) leave a hit point p from p + min_distance * d along
          their own direction d, with no offset along the normal, so a surface counts only
          beyond that distance along the ray, as the tutorial's roots count only beyond its
-         epsilon (spec 2.3: 0.1 for spheres). It decides where two surfaces meet (page 1's
+         epsilon (facts.md F4.1: 0.1 for spheres). It decides where two surfaces meet (page 1's
          spheres 0 and 1 cross on the plane x = 320, which the camera's column 320 sees):
          Mitsuba's normal offset can carry the origin across the other surface. Rays that
          leave an exact hit (``exact_hits``) keep their own rule. 0: Mitsuba's spawn offsets,
@@ -112,7 +112,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       ``ray_test_impl``, repeated in the kernel) and its own
       ``compute_surface_interaction``, so hits are Mitsuba's bit for bit, at about 0.7 of
       the render time on page 4 (docs/results/integrator.md); of two spheres at exactly the
-      same distance the first listed is hit, as in the tutorial (spec 2.3; Embree takes
+      same distance the first listed is hit, as in the tutorial (facts.md F4.1; Embree takes
       either);
     - a ray that escapes adds the environment emitter (the cube map), one that hits an
       area light adds its emission, both with ``path``'s MIS weight (1 after a delta
@@ -129,7 +129,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
     surface instead of its mesh) on every scene; with one delta light and nothing random the same
     value per sample.
 
-    **strict** (spec 2.6, 2.7; every BSDF must be :monosp:`tutorial`, optionally in
+    **strict** (facts.md F7, F8; every BSDF must be :monosp:`tutorial`, optionally in
     :monosp:`noisebump`, which expose the per-hit quantities through
     ``eval_attribute_1``): with the tutorial's segment limit
     :math:`S` = ``max_depth`` - 1,
@@ -150,7 +150,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
       unbent, as the tutorial computes it.
 
     - a :monosp:`blob` without a mesh (``tessellate`` = ``false``) is intersected as the
-      original intersects it (spec 2.10): its zone spheres' crossings walked in t order
+      original intersects it (facts.md F11): its zone spheres' crossings walked in t order
       with the bound as a float32 running sum, so where that sum comes out at 0.99999994
       in a lone source's core the ray passes through (the original's holes; a mesh has
       none).
@@ -371,7 +371,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             # hits on the exact surface. Rays leave exact points without Mitsuba's spawn
             # offset (about 0.05 at the tutorial's scale of ~500 units; the tutorial offsets
             # nothing), so a crossing within the tutorial's blob epsilon is the surface the
-            # ray left (spec 2.3: roots count only beyond 0.01): passed through, once here
+            # ray left (facts.md F4.2: roots count only beyond 0.01): passed through, once here
             # (one more intersection, cheaper than a turn of the loop), then by the loop
             behind = mi.Bool(False)
             on_exact = mi.Bool(False)

@@ -25,7 +25,7 @@ class BlobSurface:
     #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
     #: so 2 take a max_error start to float32 rounding (tests/test_blob_plugin.py)
     REFINE_STEPS = 2
-    #: the tutorial's blob epsilon (spec 2.3, world units): a crossing this close to a ray's
+    #: the tutorial's blob epsilon (facts.md F4, world units): a crossing this close to a ray's
     #: origin is the surface the ray leaves (tutorialpath's exact_hits)
     SELF_HIT = 0.01
     #: F - 1 beyond which a ray's origin is inside the surface (``exit_hit``)
@@ -81,7 +81,7 @@ class BlobSurface:
         for r in rel:
             q = r + s * do
             d2 = dr.squared_norm(q)
-            if self.normals == "exact":         # sum R^2/|q|^4 q (spec 2.10; NORMAL_SKIP)
+            if self.normals == "exact":         # sum R^2/|q|^4 q (facts.md F11.4; NORMAL_SKIP)
                 w = dr.select(d2 * inv_r2 > NORMAL_SKIP, self.radius ** 2 / dr.square(d2), 0.0)
             else:                               # -grad F: outward
                 w = -self.zone(d2 * inv_r2)[1] * (2.0 * inv_r2)
@@ -220,7 +220,7 @@ class BlobSurface:
         between two consecutive zone-sphere crossings (of any source) F is a quadratic:
         the loop walks those intervals from where the ray enters the region the surface
         can reach and solves one quadratic per interval (stable roots).
-        ``strict``: the original's walk (spec 2.10), with its float32 running bound."""
+        ``strict``: the original's walk (facts.md F11), with its float32 running bound."""
         if strict:
             return zones.strict_walk(*self.approach(ray), tmin, tmax, active)
         return zones.clean_walk(*self.approach(ray), zones.bound_level(len(self.centers)),

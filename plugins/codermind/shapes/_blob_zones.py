@@ -26,7 +26,7 @@ assert all(abs(SLOPE[k] + k * (k + 1) / 100) < 1e-12 and abs(INTERCEPT[k] - (2 *
            < 1e-12 for k in range(2, 10)), "zone tables are no longer the chords of 1/x"
 
 # the strict walk's bound increments of zones 0..8: the float32 differences of the zone bounds
-# 0.2, 0.3, ..., 1.0 (spec 2.10: they sum to exactly 1 in a lone core)
+# 0.2, 0.3, ..., 1.0 (facts.md F11.3: they sum to exactly 1 in a lone core)
 _BOUND_INC32 = [float(v) for v in np.diff(np.array([0.0] + [0.1 * k for k in range(2, 11)],
                                                    dtype=np.float32))]
 
@@ -34,7 +34,7 @@ _BOUND_INC32 = [float(v) for v in np.diff(np.array([0.0] + [0.1 * k for k in ran
 #: (the float32 rounding of each source's f is ~1e-7)
 REACH_SLACK = 1e-4
 
-#: spec 2.10's zone radii r^2/R^2 "as written in the code" (zones 0..8)
+#: facts.md F11.2's zone radii r^2/R^2 "as written in the code" (zones 0..8)
 WRITTEN_RATIO = (10.0, 5.0, 3.33333, 2.5, 2.0, 1.66667, 1.42857, 1.25, 1.1111)
 
 
@@ -115,7 +115,7 @@ def quadratic_of(tcs: list, x0s: list, a: mi.Float, t0: mi.Float, lines: list
 
 def strict_walk(tcs: list, x0s: list, a: mi.Float, tmin: float, tmax: mi.Float,
                 active: mi.Bool = True) -> mi.Float:
-    """The original's intersection (spec 2.10): every zone sphere's entry and exit,
+    """The original's intersection (facts.md F11): every zone sphere's entry and exit,
     walked in t order from the first (also behind the origin) with the bound increments
     as a float32 running sum; an interval is solved only where that sum is >= 1, so a
     lone source's core can be skipped where the sum comes out at 0.99999994 (the

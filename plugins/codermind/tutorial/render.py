@@ -12,7 +12,7 @@
 
 Auto exposure (page 4), ``exposure=``:
 
-* ``"probes"`` (default, the tutorial's): the 16 x 16 probe rays (spec 2.5) from the sensor
+* ``"probes"`` (default, the tutorial's): the 16 x 16 probe rays (facts.md F6.3) from the sensor
   whose id the block names (``probes``: pinhole, no pixel offset, a W x H film, so that
   ``sample2`` = (x / W, 1 - y / H) reaches past the image top as the tutorial's grid does),
   each traced once with the scene's integrator through ``SamplingIntegrator.sample``;
