@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from codermind.variants import set_variant
+from codermind_ref.transport import fresnel as port_fresnel
 
 from ._mitsuba import load_error
 from .stability import (Plan, Series, SweepResult, finite_check, finite_check_counts,
@@ -290,7 +291,6 @@ def _fresnel_point(p: tuple) -> dict:
             return {"values": _scalar_outputs(1.5) + _scalar_outputs(1.0)}
         except Exception as e:              # noqa: BLE001  (a failed check, not a crash)
             return {"error": f"{type(e).__name__}: {e}"}
-    from codermind_ref.transport import fresnel as port_fresnel
     mi = set_variant()
     _, density, side, quick = p
     cos_i = _cos_i(quick)
