@@ -137,13 +137,13 @@ def blob_sub_samples(rec: dict, case) -> int:
 _LABELS = threading.Lock()
 
 
-def one(k: int, run: dict, work: Path) -> dict:
+def one(k: int, run: dict, work: Path, runner) -> dict:
     from codermind_harness.compare import Options, compare_scene, prepare
     opt = Options(spp=run["spp"], seed=run["seed"], rect=run["rect"], stride=run["stride"],
                   out_dir=work / f"run{k}", progress=False, workers=2)
     t0 = time.perf_counter()
     case = prepare(run["scene"], opt)
-    rec = compare_scene(case, opt, f"run{k}")
+    rec = compare_scene(case, opt, f"run{k}", runner)
     with _LABELS:
         blob = blob_sub_samples(rec, case)
     pooled = rec.get("pooled") or {}
@@ -305,12 +305,12 @@ def main() -> int:
         for a, b in summary(rows):
             print(f"{a}: {b}")
         return 0
-    from codermind_harness.cluster import open_cluster
-    with open_cluster(args.cluster, progress=False) as cluster:
-        return run(args, cluster)
+    from codermind_harness.cluster import open_runner
+    with open_runner(args.cluster, progress=False) as runner:
+        return run(args, runner)
 
 
-def run(args: argparse.Namespace, cluster) -> int:
+def run(args: argparse.Namespace, runner) -> int:
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
@@ -336,13 +336,13 @@ def run(args: argparse.Namespace, cluster) -> int:
             out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
             out.write_text(markdown(rows, argv, time.perf_counter() - t0))
 
-    if cluster is None:
+    if not runner.remote:
         for k, r in todo:
-            done(one(k, r, work))
+            done(one(k, r, work, runner))
     else:
         from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(min(len(todo), 8) or 1) as pool:
-            for f in [pool.submit(one, k, r, work) for k, r in todo]:
+            for f in [pool.submit(one, k, r, work, runner) for k, r in todo]:
                 done(f.result())
     for a, b in summary(rows):
         print(f"{a}: {b}")

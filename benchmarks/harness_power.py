@@ -110,9 +110,9 @@ def main() -> int:
                          "(docs/cluster.md); the scene, the edited XML and the cube-map faces "
                          "travel with the tasks, the client writes the table")
     args = ap.parse_args()
-    from codermind_harness.cluster import open_cluster
-    with open_cluster(args.cluster) as cluster:
-        return run(args, cluster)
+    from codermind_harness.cluster import open_runner
+    with open_runner(args.cluster) as runner:
+        return run(args, runner)
 
 
 #: ``Cubemap.Up = sky/skyup.tga;`` in a tutorial scene; ``<string name=".." value="FILE"/>``
@@ -173,15 +173,15 @@ def run_case(case: dict, files: dict) -> dict:
             "exposure_p": (rec["exposure_test"] or {}).get("p"), "seconds": seconds}
 
 
-def run(args: argparse.Namespace, cluster=None) -> int:
+def run(args: argparse.Namespace, runner) -> int:
     chosen = [case_inputs(k, c) for k, c in enumerate(cases())
               if not args.only or any(o in c[0] for o in args.only)]
     files = {name: inputs(name) for name in dict.fromkeys(c["name"] for c in chosen)}
-    if cluster is None:
+    if not runner.remote:
         rows = (run_case(c, files[c["name"]]) for c in chosen)
     else:                       # one task per case; each page's files sent once
-        shared = {name: cluster.share(f) for name, f in files.items()}
-        rows = cluster.results(cluster.submit_all(
+        shared = {name: runner.share(f) for name, f in files.items()}
+        rows = runner.results(runner.submit_all(
             run_case, [(c, shared[c["name"]]) for c in chosen]))
     done = []
     for row in rows:        # in case order, as they come back

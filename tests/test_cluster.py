@@ -107,14 +107,14 @@ def test_a_bad_cluster_value_is_a_one_line_error_with_status_2(tmp_path, value):
 
 
 def test_the_bundle_carries_the_cube_faces_and_names_nothing_outside_it(tmp_path):
-    from codermind_harness.cluster import Bundle, _WORKER
+    from codermind_harness.bundle import _FOLDERS, Bundle
     bundle = Bundle.of(SCENES / "page4.xml")
     names = dict(bundle.files)
     assert len(names) == 6 and all(n.startswith("inputs/") for n in names)
     assert str(SCENES) not in bundle.text and 'value="sky/' not in bundle.text
     for name, data in names.items():     # byte for byte the files the XML named
         assert data == (SCENES / "sky" / name.split("-", 1)[1]).read_bytes()
-    _WORKER["folders"].pop(bundle.digest, None)
+    _FOLDERS.pop(bundle.digest, None)
     xml = bundle.materialize()
     assert xml.parent != SCENES and all((xml.parent / n).read_bytes() == d
                                         for n, d in names.items())
@@ -277,10 +277,10 @@ def plan_sweeps(monkeypatch):
 
 def test_sweep_plans_in_two_rounds_and_a_crashed_point_on_the_cluster(cluster, plan_sweeps):
     from codermind_harness import stability
-    from codermind_harness.cluster import open_cluster
+    from codermind_harness.cluster import open_runner
     local = stability.run()
-    with open_cluster(cluster, progress=False) as cl:
-        remote = stability.run()
+    with open_runner(cluster, progress=False) as cl:
+        remote = stability.run(runner=cl)
         assert cl.submitted == 3 + 1 + 2            # both rounds and the crashing sweep
     for results in (local, remote):
         two, crashed = results

@@ -23,7 +23,6 @@ SKIP_DIRS = {".git", ".venv", "venv", "__pycache__", ".pytest_cache", ".hypothes
 #: "/" are folders). docs/reference/integrator-tutorialpath.md is generated from
 #: tutorialpath.py's docstring; docs/figures/stability.* are written by the harness's sweeps.
 SPEC_CITATIONS_ALLOWED = {
-    "reference/codermind_harness/",
     "docs/results/",
     "benchmarks/",
     "docs/figures/stability.json",

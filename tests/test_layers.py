@@ -1,7 +1,9 @@
 """Imports run one way: command line (codermind_cli) -> harness (codermind_harness) -> plugins
-(codermind); the port (codermind_ref) imports nothing of ours. Checked statically over every
-module's source (imports inside functions and ``importlib.import_module("...")`` included),
-as tests/test_port_isolation.py does for the port, and once at run time."""
+(codermind); the port (codermind_ref) imports nothing of ours; inside each package no module
+imports another in a circle; the harness imports inside functions only what is heavy to
+import. Checked statically over every module's source (imports inside functions and
+``importlib.import_module("...")`` included), as tests/test_port_isolation.py does for the
+port, and once at run time."""
 
 from __future__ import annotations
 
@@ -60,6 +62,64 @@ def modules(package: str) -> list[Path]:
     return sorted(PACKAGES[package].rglob("*.py"))
 
 
+def _targets(node: ast.AST, module: str, is_package: bool, known: set[str]) -> list[str]:
+    """The modules of ``known`` that an import node loads by name: ``from . import x`` the
+    submodule x (not the package that holds it), ``from .m import name`` the module m."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names if a.name in known]
+    if isinstance(node, ast.ImportFrom):
+        if node.level:
+            base = module.split(".")
+            base = ".".join(base[:len(base) - node.level + (1 if is_package else 0)]
+                            + ([node.module] if node.module else []))
+        else:
+            base = node.module
+        subs = [f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in known]
+        rest = len(subs) < len(node.names)
+        return subs + ([base] if rest and base in known else [])
+    if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(
+            node.func, "id", "")) in ("import_module", "__import__"):
+        arg = node.args[0] if node.args else None
+        if isinstance(arg, ast.Constant) and arg.value in known:
+            return [arg.value]
+    return []
+
+
+def import_graph(package: str) -> dict[str, set[str]]:
+    """module -> the modules of the same package it imports (at the top or in a function)."""
+    paths = {_module_name(package, p): p for p in modules(package)}
+    graph = {}
+    for name, path in paths.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        graph[name] = {t for node in ast.walk(tree)
+                       for t in _targets(node, name, path.name == "__init__.py", set(paths))
+                       if t != name}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A circle of imports (its modules, the first repeated at the end), or None."""
+    state: dict[str, int] = {}              # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                return path[path.index(nxt):] + [nxt]
+            if nxt not in state and (found := visit(nxt)):
+                return found
+        path.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(graph):
+        if node not in state and (found := visit(node)):
+            return found
+    return None
+
+
 @pytest.mark.parametrize("package", sorted(FORBIDDEN))
 def test_no_layer_imports_a_layer_above_it(package):
     found = modules(package)
@@ -92,6 +152,56 @@ def test_the_checker_sees_imports_inside_functions_and_relative_ones(tmp_path):
         assert imported_names("_probe", probe) == ["codermind_harness.sides", "codermind_cli.main"]
     finally:
         del PACKAGES["_probe"]
+
+
+@pytest.mark.parametrize("package", sorted(PACKAGES))
+def test_no_module_imports_another_of_its_package_in_a_circle(package):
+    graph = import_graph(package)
+    assert len(graph) >= 5
+    cycle = find_cycle(graph)
+    assert cycle is None, f"{package}: import cycle " + " -> ".join(cycle)
+
+
+def test_the_cycle_checker_finds_a_circle_through_a_function_local_import(tmp_path):
+    """The check itself can fail: a -> b at the top, b -> a inside a function."""
+    (tmp_path / "a.py").write_text("from . import b\n")
+    (tmp_path / "b.py").write_text("def f():\n    from .a import g\n")
+    (tmp_path / "c.py").write_text("from .b import f\n")
+    PACKAGES["_probe"] = tmp_path
+    try:
+        graph = import_graph("_probe")
+    finally:
+        del PACKAGES["_probe"]
+    assert graph == {"_probe.a": {"_probe.b"}, "_probe.b": {"_probe.a"}, "_probe.c": {"_probe.b"}}
+    assert find_cycle(graph) == ["_probe.a", "_probe.b", "_probe.a"]
+    assert find_cycle({"x": {"y"}, "y": set()}) is None
+
+
+#: What the harness may import inside a function: modules that take seconds to import
+#: (codermind starts Mitsuba and its JIT) or are optional (distributed: --cluster only).
+HEAVY = {"codermind", "mitsuba", "drjit", "distributed", "matplotlib", "scipy",
+         "flip_evaluator"}
+
+
+def function_local_imports(path: Path) -> list[str]:
+    """Top-level names of the modules imported inside a function of ``path``."""
+    names = []
+    for fn in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for node in ast.walk(fn):
+                if isinstance(node, ast.Import):
+                    names += [a.name.split(".")[0] for a in node.names]
+                elif isinstance(node, ast.ImportFrom):
+                    names.append("." * node.level + (node.module or "").split(".")[0])
+    return names
+
+
+def test_the_harness_imports_inside_functions_only_heavy_modules():
+    found = modules("codermind_harness")
+    assert len(found) > 10
+    local = [(p.name, n) for p in found for n in function_local_imports(p)]
+    assert len(local) > 10                  # Mitsuba's are there: the check sees them
+    assert [f"{p} imports {n} in a function" for p, n in local if n not in HEAVY] == []
 
 
 SCRIPT = r"""

@@ -32,7 +32,9 @@ cached by Dr.Jit across runs, is not counted); port points are the render.
 
 from __future__ import annotations
 
+import functools
 import os
+import re
 import statistics
 import time
 from dataclasses import asdict, dataclass, field
@@ -41,11 +43,15 @@ from typing import Callable
 
 import numpy as np
 
+import codermind_ref
 from codermind.variants import set_variant
 
 from . import chart_cost, chart_report
+from .bundle import Bundle
 from .chart_data import (FULL, PORT_SEED, QUICK, REF_SEED, SCENES, SWEEP_SEED, THRESHOLD,
                          Config, Point, log, pareto_front, scenes_dir)
+from .metrics import flip, rel_mse
+from .runner import LOCAL, Runner
 from .sides import Grid, HarnessError, encode_mitsuba, load_mitsuba, parse, port_exposure, twin_of
 
 
@@ -53,15 +59,24 @@ from .sides import Grid, HarnessError, encode_mitsuba, load_mitsuba, parse, port
 
 class MitsubaRunner:
     """Loaded scenes (one per crop and ``-D`` overrides); a scene is warmed up (one untimed
-    1-spp render) whenever it is rendered after another one."""
+    1-spp render) whenever it is rendered after another one. It pickles as its XML's
+    :class:`Bundle` and unpickles as the one runner of that bundle in the receiving process
+    (a chart point on a worker keeps that process's loaded scenes)."""
 
     def __init__(self, xml: Path, width: int, height: int, page: int):
         self.xml, self.width, self.height, self.page = xml, width, height, page
         self.cache: dict = {}
         self.last = None
         self.warmups: list[float] = []      #: seconds of the untimed warm-up renders
+        self._bundle: Bundle | None = None
+
+    def __reduce__(self):
+        if self._bundle is None:
+            self._bundle = Bundle.of(self.xml)
+        return _runner_of, (self._bundle, self.width, self.height, self.page)
 
     def get(self, rect, defines: dict, variant: str = "llvm_ad_rgb"):
+        from codermind.tutorial.render import light_scenes     # heavy: Mitsuba
         key = (tuple(rect), tuple(sorted(defines.items())), variant)
         if key not in self.cache:
             set_variant(variant)
@@ -69,7 +84,6 @@ class MitsubaRunner:
             t0 = time.perf_counter()
             scene, settings = load_mitsuba(self.xml, grid, {k: str(v) for k, v in defines.items()})
             load = time.perf_counter() - t0
-            from codermind.tutorial.render import light_scenes
             scenes = light_scenes(scene) if settings.lights == "sum" else [scene]
             tris = sum(int(s.face_count()) for s in scene.shapes() if s.is_mesh()) or None
             self.cache[key] = (grid, scenes, settings, load, tris)
@@ -77,7 +91,7 @@ class MitsubaRunner:
 
     def render(self, rect, defines: dict, spp: int, seed: int, variant: str = "llvm_ad_rgb",
                variance: bool = False, label: str | None = None):
-        from codermind.passes import Progress
+        from codermind.passes import Progress      # heavy: Mitsuba
         from codermind.tutorial.render import render_linear
         key, (grid, scenes, settings, load, tris) = self.get(rect, defines, variant)
         set_variant(variant)
@@ -101,11 +115,35 @@ class MitsubaRunner:
             del self.cache[key]
 
 
+#: Per process: the runner of each bundle (:meth:`MitsubaRunner.__reduce__`).
+_RUNNERS: dict[str, MitsubaRunner] = {}
+
+
+def _runner_of(bundle: Bundle, width: int, height: int, page: int) -> MitsubaRunner:
+    runner = _RUNNERS.get(bundle.digest)
+    if runner is None:
+        runner = _RUNNERS[bundle.digest] = MitsubaRunner(bundle.materialize(), width, height,
+                                                         page)
+    return runner
+
+
+def _mitsuba_point(runner: MitsubaRunner, rect, defines: dict, spp: int,
+                   variant: str = "llvm_ad_rgb"):
+    """A Mitsuba point: (linear, seconds with the load, load seconds, triangles)."""
+    lin, _, secs, load, tris, _ = runner.render(rect, defines, spp, SWEEP_SEED, variant)
+    return lin, load + secs, load, tris
+
+
+def _port_point(scene, rect, complexity: int, exposure):
+    """A port point: (linear, seconds, 0, None)."""
+    lin, secs = _port(scene, rect, complexity, exposure)
+    return lin, secs, 0.0, None
+
+
 def _port(scene, rect, complexity: int, exposure):
-    import codermind_ref as ref
     t0 = time.perf_counter()
-    r = ref.render(scene, "clean", PORT_SEED, complexity, exposure=exposure, rect=rect,
-                   workers=2)
+    r = codermind_ref.render(scene, "clean", PORT_SEED, complexity, exposure=exposure,
+                             rect=rect, workers=2)
     return r.linear.astype(np.float64), time.perf_counter() - t0
 
 
@@ -123,15 +161,13 @@ class Job:
     tris: int | None = None
 
 
-def _interleave(jobs: list[Job], cfg: Config, label: str, remote: bool = True) -> None:
-    """Run every job once, then the cheap ones again, round-robin, rotating the order. On a
-    cluster (``remote``: the jobs pickle) each round's jobs are tasks, one point each."""
-    from .cluster import current
-    cluster = current() if remote else None
+def _interleave(jobs: list[Job], cfg: Config, label: str, runner: Runner) -> None:
+    """Run every job once, then the cheap ones again, round-robin, rotating the order; each
+    round's jobs are units of ``runner``, one point each."""
     for rnd in range(cfg.repeats):
         todo = [j for j in jobs if rnd == 0 or j.runs[0] < cfg.cheap_s]
         todo = todo[rnd % max(len(todo), 1):] + todo[:rnd % max(len(todo), 1)]
-        outs = cluster.run_calls([j.run for j in todo]) if cluster else (j.run() for j in todo)
+        outs = runner.run_calls([j.run for j in todo])
         for k, (job, out) in enumerate(zip(todo, outs)):
             lin, secs, load, tris = out
             job.runs.append(secs)
@@ -142,7 +178,7 @@ def _interleave(jobs: list[Job], cfg: Config, label: str, remote: bool = True) -
                  f"{job.param}={job.value:g}: {secs:.2f} s")
 
 
-def reference(runner, scene, rect, cfg: Config, det: bool):
+def reference(mits: MitsubaRunner, scene, rect, cfg: Config, det: bool):
     """(linear, variance or None, description, seconds) of the converged reference."""
     t0 = time.perf_counter()
     if det:
@@ -150,16 +186,17 @@ def reference(runner, scene, rect, cfg: Config, det: bool):
         return lin, None, "port clean, Complexity 1 (nothing random: exact)", \
             time.perf_counter() - t0
     defines = {} if cfg.ref_max_error is None else {"blob0_max_error": cfg.ref_max_error}
-    lin, var, *_ = runner.render(rect, defines, cfg.ref_spp, REF_SEED, variance=True,
-                                 label="reference")
+    lin, var, *_ = mits.render(rect, defines, cfg.ref_spp, REF_SEED, variance=True,
+                               label="reference")
     blob = "the chooser's" if cfg.ref_max_error is None else f"{cfg.ref_max_error}"
     return lin, var, (f"Mitsuba full model, blob max_error {blob}, {cfg.ref_spp} spp, "
                       f"seed {REF_SEED}"), time.perf_counter() - t0
 
 
-def chart_scene(name: str, cfg: Config) -> dict:
-    """Every method's points on one bundled scene, with errors against the reference."""
-    from codermind.tutorial.model import choose
+def chart_scene(name: str, cfg: Config, runner: Runner = LOCAL) -> dict:
+    """Every method's points on one bundled scene, with errors against the reference; the
+    points are units of ``runner``."""
+    from codermind.tutorial.model import choose     # heavy: Mitsuba
     from codermind.tutorial.render import read_settings
     if name == "garden":
         return chart_garden(cfg)
@@ -171,23 +208,17 @@ def chart_scene(name: str, cfg: Config) -> dict:
     Grid.of(w, h, scene.page, rect=rect)
     det = not choose(scene, exposure=1.0, max_depth=11, spp=1).stochastic
     exposure = port_exposure(scene, PORT_SEED)
-    runner = MitsubaRunner(xml, w, h, scene.page)
+    mits = MitsubaRunner(xml, w, h, scene.page)
     chosen = _xml_defaults(xml)
     log(f"{name}: {'deterministic' if det else 'random'}, crop {rect}, exposure {exposure}")
-    ref_lin, ref_var, ref_desc, ref_s = reference(runner, scene, rect, cfg, det)
+    ref_lin, ref_var, ref_desc, ref_s = reference(mits, scene, rect, cfg, det)
     log(f"{name}: reference ({ref_desc}) in {ref_s:.1f} s")
 
-    def mitsuba(defines, spp, r=rect, variant="llvm_ad_rgb"):
-        def run():
-            lin, _, secs, load, tris, _ = runner.render(r, defines, spp, SWEEP_SEED, variant)
-            return lin, load + secs, load, tris
-        return run
+    def mitsuba(defines, spp):
+        return functools.partial(_mitsuba_point, mits, rect, defines, spp)
 
     def port(c):
-        def run():
-            lin, secs = _port(scene, rect, c, exposure)
-            return lin, secs, 0.0, None
-        return run
+        return functools.partial(_port_point, scene, rect, c, exposure)
 
     base = {k: v for k, v in chosen.items() if k in ("blob0_max_error",)}
     jobs = [Job("mitsuba spp", "spp", s, s, mitsuba(base, s))
@@ -206,10 +237,10 @@ def chart_scene(name: str, cfg: Config) -> dict:
     maximal = {k: float(v) / cfg.maximal_divisor for k, v in base.items()}
     jobs.append(Job("maximal model", "model", 1, cfg.maximal_spp,
                     mitsuba(maximal, cfg.maximal_spp)))
-    _interleave(jobs, cfg, name)
+    _interleave(jobs, cfg, name, runner)
 
     points = [_point(name, j, ref_lin, settings, exposure, rect) for j in jobs]
-    points += _scalar_points(name, runner, cfg, ref_lin, rect, settings, exposure, det)
+    points += _scalar_points(name, mits, cfg, ref_lin, rect, settings, exposure, runner)
     for metric in ("rel_mse", "flip"):
         main = [p for p in points if p.panel == "main"]
         for p, on in zip(main, pareto_front([p.seconds for p in main],
@@ -221,18 +252,17 @@ def chart_scene(name: str, cfg: Config) -> dict:
     return {"scene": name, "xml": f"scenes/{xml.name}", "crop": list(rect),
             "deterministic": det, "exposure": exposure, "reference": ref_desc,
             "reference_seconds": ref_s, "reference_noise_rel_mse": floor,
-            "warmup_seconds_median": statistics.median(runner.warmups) if runner.warmups else None,
+            "warmup_seconds_median": statistics.median(mits.warmups) if mits.warmups else None,
             "chosen_model": chosen, "points": points}
 
 
 def chart_garden(cfg: Config) -> dict:
     """``scenes/garden.xml`` (no tutorial twin): Mitsuba's spp sweep only, at a reduced
     resolution (``-D resx/resy``), against Mitsuba at ``ref_spp`` with another seed."""
-    from codermind.passes import Progress
+    from codermind.passes import Progress          # heavy: Mitsuba
     from codermind.scene import load_scene
     from codermind.tutorial.image import srgb_encode
     from codermind.tutorial.render import render_linear
-    from .metrics import flip, rel_mse
     set_variant("llvm_ad_rgb")
     xml = scenes_dir() / "garden.xml"
     w, h = cfg.garden_size
@@ -255,7 +285,7 @@ def chart_garden(cfg: Config) -> dict:
             return lin.astype(np.float64), load + time.perf_counter() - t, load, None
         return go
     jobs = [Job("mitsuba spp", "spp", s, s, run(s)) for s in cfg.spp]
-    _interleave(jobs, cfg, "garden", remote=False)     # its loaded scene does not pickle
+    _interleave(jobs, cfg, "garden", LOCAL)     # here: its loaded scene does not pickle
     enc = lambda x: np.clip(srgb_encode(np.clip(x, 0.0, 1.0)), 0.0, 1.0)   # noqa: E731
     points = []
     for j in jobs:
@@ -275,7 +305,6 @@ def chart_garden(cfg: Config) -> dict:
 
 
 def _point(name, job: Job, ref_lin, settings, exposure, rect, ref_rect=None) -> Point:
-    from .metrics import flip, rel_mse
     ref = ref_lin if ref_rect is None else _sub(ref_lin, ref_rect, rect, settings)
     p = Point(name, job.method, job.param, job.value, job.spp,
               statistics.median(job.runs), job.load, list(job.runs), triangles=job.tris,
@@ -294,7 +323,8 @@ def _sub(ref_lin, outer, inner, settings) -> np.ndarray:
     return ref_lin[y0:y0 + k * (inner[3] - inner[1]), x0:x0 + k * (inner[2] - inner[0])]
 
 
-def _scalar_points(name, runner, cfg, ref_lin, rect, settings, exposure, det) -> list[Point]:
+def _scalar_points(name, mits: MitsubaRunner, cfg, ref_lin, rect, settings, exposure,
+                   runner: Runner) -> list[Point]:
     """scalar_rgb and llvm_ad_rgb on the small scalar crop (page 4 only: the slow one)."""
     if name != "page4":
         return []
@@ -306,21 +336,19 @@ def _scalar_points(name, runner, cfg, ref_lin, rect, settings, exposure, det) ->
     for variant in ("llvm_ad_rgb", "scalar_rgb"):
         label = variant if variant == "scalar_rgb" else "llvm_ad_rgb (scalar crop)"
         for s in cfg.scalar_spp:
-            def run(s=s, variant=variant):
-                lin, _, secs, load, tris, _ = runner.render(r, {}, s, SWEEP_SEED, variant)
-                return lin, load + secs, load, tris
-            jobs.append(Job(label, "spp", s, s, run, panel="scalar"))
+            jobs.append(Job(label, "spp", s, s,
+                            functools.partial(_mitsuba_point, mits, r, {}, s, variant),
+                            panel="scalar"))
     # two rounds, both variants in each (the variant switch re-registers the plugins)
     _interleave(jobs, Config(**{**asdict(cfg), "repeats": min(cfg.repeats, 2),
-                                "cheap_s": 1e9}), f"{name} scalar")
-    runner.drop("scalar_rgb")
+                                "cheap_s": 1e9}), f"{name} scalar", runner)
+    mits.drop("scalar_rgb")
     set_variant("llvm_ad_rgb")
     return [_point(name, j, ref_lin, settings, exposure, r, ref_rect=rect) for j in jobs]
 
 
 def _xml_defaults(xml: Path) -> dict:
     """The ``<default>`` values the converter baked into the XML (the chooser's model)."""
-    import re
     text = xml.read_text(encoding="utf-8")
     out = {}
     for m in re.finditer(r'<default name="(\w+)" value="([^"]*)"', text):
@@ -329,16 +357,12 @@ def _xml_defaults(xml: Path) -> dict:
     return out
 
 
-def cluster_address() -> str | None:
-    """The ``--cluster`` the points ran on (None: this machine). On a cluster a port point
-    renders in its task's process (a Dask worker is daemonic: the port forks no pool there)."""
-    from .cluster import current
-    return current().address if current() else None
-
-
-def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tuple[list, str]:
+def run(outdir: Path, only=None, quick: bool = False, cost: bool = True,
+        runner: Runner = LOCAL) -> tuple[list, str]:
     """Chart ``only`` (default: every bundled scene), write the outputs; returns (paths,
-    table)."""
+    table). The points are units of ``runner`` (on a Dask worker a port point renders in
+    its task's process: a worker is daemonic, the port forks no pool there); the
+    cost-scaling experiments run here."""
     cfg = QUICK if quick else FULL
     names = list(only or SCENES)
     Path(outdir).mkdir(parents=True, exist_ok=True)      # fail before the work, not after
@@ -346,7 +370,7 @@ def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tupl
     set_variant("llvm_ad_rgb")
     results = []
     for name in names:
-        res = chart_scene(name, cfg)
+        res = chart_scene(name, cfg, runner)
         res["summary"] = chart_report.summary(res)
         results.append(res)
     rows, slopes = ([], {})
@@ -357,6 +381,6 @@ def run(outdir: Path, only=None, quick: bool = False, cost: bool = True) -> tupl
     meta = {"config": cfg.name, "seconds": time.perf_counter() - t0,
             "load_average_before": list(before), "load_average_after": list(after),
             "load_text": chart_report.load_text(before, after), "cpus": os.cpu_count(),
-            "threshold_rel_mse": THRESHOLD, "cluster": cluster_address()}
+            "threshold_rel_mse": THRESHOLD, "cluster": runner.address}
     paths = chart_report.write(Path(outdir), results, rows, slopes, meta)
     return paths, chart_report.table(results)

@@ -19,10 +19,13 @@ from __future__ import annotations
 import os
 import re
 import statistics
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+import codermind_ref
 
 from .chart_data import PORT_SEED, SWEEP_SEED, Config, fit_slope, log, scenes_dir
 from .sides import parse, twin_of
@@ -37,7 +40,6 @@ def pixels(cfg: Config) -> list[dict]:
     """The whole page-4 frame at 1/s of the resolution (the same content at every size):
     Mitsuba with the first film scaled (the camera's FOV is fixed, so the view is the same;
     plain render, 4 spp), the port with every s-th pixel (stride s, Complexity 1)."""
-    import tempfile
     from codermind.scene import load_scene
     from codermind.tutorial.render import light_scenes, render_linear
     txt, xml = twin_of(scenes_dir() / "page4.xml")
@@ -80,8 +82,7 @@ def _scaled_film(text: str, s: int) -> str:
 
 
 def _port_stride(scene, rect, stride: int) -> None:
-    import codermind_ref as ref
-    ref.render(scene, "clean", PORT_SEED, 1, exposure=1.0, rect=rect, stride=stride, workers=2)
+    codermind_ref.render(scene, "clean", PORT_SEED, 1, exposure=1.0, rect=rect, stride=stride, workers=2)
 
 
 def from_scene(page4: dict) -> list[dict]:

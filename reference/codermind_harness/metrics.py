@@ -26,7 +26,7 @@ integer images): :func:`check_ldr` refuses all of them first with :class:`FlipIn
 (test - ref)^2 / (ref^2 + 0.01), on linear radiance (the usual 0.01 keeps dark pixels from
 dominating).
 
-**Exposure test** (:func:`exposure_test`): each side's page-4 auto exposure E (spec 2.5: 256
+**Exposure test** (:func:`exposure_test`): each side's page-4 auto exposure E (facts.md F6.3: 256
 single-ray probes) is a random variable of its random numbers; with E estimated for several
 seeds on each side, Welch's two-sample t-test (unequal variances, Welch-Satterthwaite degrees
 of freedom) of the two means at level ``EXPOSURE_ALPHA`` (two-sided). One test per scene: the

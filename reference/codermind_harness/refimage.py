@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+import codermind_ref.png as png
+
 from .sides import Grid, HarnessError
 
 KINDS = {".tga": "8-bit", ".png": "8-bit", ".exr": "linear"}
@@ -55,7 +57,6 @@ def read(path: str | os.PathLike, width: int, height: int, sub: int) -> Referenc
         if path.suffix.lower() == ".tga":
             image = _tga(data)
         elif path.suffix.lower() == ".png":
-            import codermind_ref.png as png
             image = _rgb(png.decode(data))
         else:
             image = _exr(path)

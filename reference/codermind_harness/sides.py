@@ -32,6 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
+import codermind_ref as ref
+
+from .bundle import Bundle
+from .progress import PortProgress
+from .runner import LOCAL, Runner
+
 #: The converted XML's header names its source file: "Converted by `codermind convert`
 #: from NAME (scene version ..." (codermind.tutorial.xml).
 _SOURCE = re.compile(r"Converted by `codermind convert` from (?P<name>.+?) \(scene version")
@@ -114,6 +120,22 @@ class SideImage:
                              #: port: rays - 1); None: not estimated
 
 
+@dataclass
+class Renders:
+    """One scene rendered on both sides at one exposure (``compare.render_sides``)."""
+    xml: Path                               #: the Mitsuba side's XML
+    defines: dict                           #: its XML defines
+    exposure: float | None                  #: of both images
+    seeds: list[int]                        #: page 4: the exposure test's seeds
+    port_exposures: list[float] | None      #: the port's auto exposure for each seed
+    port_probe_seconds: float
+    port: SideImage                         #: either tie rule where they differ
+    mits: SideImage
+    own: SideImage                          #: the port as rendered (first tie rule)
+    again: SideImage | None = None          #: the port with seed + 1 (noise floor)
+    ties: dict | None = None                #: pixels with a tie and how Mitsuba took them
+
+
 # -- the scene and its twin ------------------------------------------------------------------
 
 def twin_of(path: str | os.PathLike) -> tuple[Path, Path | None]:
@@ -138,7 +160,6 @@ def twin_of(path: str | os.PathLike) -> tuple[Path, Path | None]:
 
 
 def parse(txt: Path):
-    import codermind_ref as ref
     try:
         return ref.parse_scene(txt)
     except ref.SceneError as e:
@@ -161,7 +182,6 @@ def default_spp(scene) -> int:
 
 def port_exposure(scene, seed: int, mode: str = "clean") -> float | None:
     """The port's exposure for ``seed``: page 4 auto (the probe grid), page 2: 1, page 1: None."""
-    import codermind_ref as ref
     if scene.page == 1:
         return None
     if scene.page == 2:
@@ -295,33 +315,68 @@ def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.n
 
 def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
                    defines: dict | None = None, variance: bool = True,
-                   progress: bool = True, exposure_seeds=(), iid: bool = False) -> SideImage:
+                   progress: bool = True, exposure_seeds=(), iid: bool = False,
+                   runner: Runner = LOCAL) -> SideImage:
     """The grid rendered from ``xml``; with ``exposure_seeds`` (page 4) also the auto
     exposure of the XML's probes for each of those seeds; with ``iid`` with the
-    ``independent`` sampler (:func:`iid_sampler_xml`)."""
-    from codermind.passes import Progress
-    from codermind.tutorial.render import light_scenes, probe_exposure, render_linear
-    from .cluster import current
-    if current() is not None:       # one task on a worker, which keeps the loaded scene
-        return current().render_mitsuba(xml, grid, spp, seed, exposure, defines, variance,
-                                        exposure_seeds=exposure_seeds, iid=iid)
+    ``independent`` sampler (:func:`iid_sampler_xml`). One unit of ``runner``
+    (:func:`mitsuba_side`), in this process's Mitsuba variant."""
+    import mitsuba as mi        # heavy: Mitsuba and its JIT
+    return runner.call(mitsuba_side, runner.ship(xml), grid, spp, seed, exposure,
+                       dict(defines or {}), variance, mi.variant(), tuple(exposure_seeds), iid,
+                       progress and not runner.remote)
+
+
+#: Per process: the scenes loaded from bundles (a worker keeps them for the next task).
+_LOADED: dict = {}
+
+
+def mitsuba_side(xml: Path | Bundle, grid: Grid, spp: int, seed: int, exposure: float | None,
+                 defines: dict, variance: bool, variant: str | None, exposure_seeds: tuple,
+                 iid: bool, progress: bool) -> SideImage:
+    """:func:`render_mitsuba` where the runner runs it: here (``xml`` a path) or in another
+    process (a :class:`Bundle`, its loaded scene kept for the next task there)."""
+    from codermind.passes import Progress      # heavy: Mitsuba (so are those below)
+    from codermind.tutorial.render import probe_exposure, render_linear
     t0 = time.perf_counter()
-    defines = dict(defines or {})
-    scene, settings = load_mitsuba(xml, grid, defines, iid)
+    _use_variant(variant)
+    if isinstance(xml, Path):
+        scenes, settings = _load(xml, grid, defines, iid)
+    else:
+        key = (xml.digest, grid, tuple(sorted(defines.items())), variant, iid)
+        if key not in _LOADED:
+            _LOADED[key] = _load(xml.materialize(), grid, defines, iid)
+        scenes, settings = _LOADED[key]
     t1 = time.perf_counter()
-    scenes = light_scenes(scene) if settings.lights == "sum" else scene
     bar = Progress(spp, label=f"mitsuba {xml.name}") if progress else None
     mean, var, done, times = render_linear(scenes, spp, seed, variance=variance, progress=bar)
     t2 = time.perf_counter()
     exposures = None
     if settings.page == 4 and len(exposure_seeds):
         exposures = [probe_exposure(scenes, settings, int(s)) for s in exposure_seeds]
-    seconds = time.perf_counter() - t0
     linear = grid.take(mean.astype(np.float64))
     var = grid.take(var.astype(np.float64)) if var is not None else np.zeros_like(linear)
     return SideImage("mitsuba", linear, var, encode_mitsuba(linear, settings, exposure),
-                     done, t2 - t0, t1 - t0, exposures, seconds - (t2 - t0),
+                     done, t2 - t0, t1 - t0, exposures, time.perf_counter() - t2,
                      mitsuba_dof(variance, times))
+
+
+def _load(xml: Path, grid: Grid, defines: dict, iid: bool):
+    """(scene or its per-light scenes, settings) of ``xml``: the lights summed as the tutorial
+    does where its settings say so."""
+    from codermind.tutorial.render import light_scenes
+    scene, settings = load_mitsuba(xml, grid, dict(defines), iid)
+    return (light_scenes(scene) if settings.lights == "sum" else scene), settings
+
+
+def _use_variant(name: str | None) -> None:
+    """The Mitsuba variant ``name`` in this process (a no-op where it is set already), the
+    plugins registered."""
+    import mitsuba as mi
+    if name is None or mi.variant() != name:
+        from codermind.variants import set_variant
+        set_variant(name)
+    import codermind  # noqa: F401  (registers the plugins)
 
 
 def mitsuba_dof(variance: bool, times: list) -> int | None:
@@ -333,16 +388,16 @@ def mitsuba_dof(variance: bool, times: list) -> int | None:
 
 def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                 mode: str = "clean", random: bool | None = None, workers: int | None = None,
-                progress: bool = True, ties: str = "first") -> SideImage:
-    import codermind_ref as ref
+                progress: bool = True, ties: str = "first", runner: Runner = LOCAL
+                ) -> SideImage:
+    """The grid rendered by the port; its tiles as units of ``runner`` (a remote runner's
+    under that runner's progress line)."""
     t0 = time.perf_counter()
-    from .progress import PortProgress
-    from .cluster import current
-    cluster = current()             # its tiles as tasks, under the cluster's progress line
-    callback = PortProgress(f"port {Path(scene.path).name}") if progress and not cluster else None
+    callback = (PortProgress(f"port {Path(scene.path).name}")
+                if progress and not runner.remote else None)
     result = ref.render(scene, mode, seed, spp, exposure=exposure, rect=grid.rect,
                         stride=grid.stride, workers=workers, progress=callback,
-                        tile_map=cluster.tile_map if cluster else None, ties=ties)
+                        tile_map=runner.tile_map, ties=ties)
     seconds = time.perf_counter() - t0
     var = result.variance.astype(np.float64)
     if np.isnan(var).any():

@@ -3,7 +3,7 @@
 Every sweep is a function ``sweep(quick: bool)`` registered in :data:`SWEEPS` (its module is
 imported only when the sweep runs). It returns a :class:`Plan`, the sweep split into its
 points: a list of point inputs, a module-level function computing one point (picklable inputs
-and results, no shared state: on a cluster each point is one task), and ``assemble``, which
+and results, no shared state: on a remote runner each point is one task), and ``assemble``, which
 turns the points' results, in order, into the :class:`SweepResult` on the client (or into a
 further :class:`Plan`, a second round of points that depend on the first). A sweep function
 may also return its ``SweepResult`` directly (computed where it is called: on the client).
@@ -31,6 +31,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+
+from .runner import LOCAL, Runner
 
 #: name -> (module, function, one-line description), in report order.
 SWEEPS: dict[str, tuple[str, str, str]] = {
@@ -129,7 +131,7 @@ def finite_check_counts(result: SweepResult, what: str, counts) -> bool:
 @dataclass
 class Plan:
     """A sweep as points: ``point(p)`` for each ``p`` of ``points`` (one task each on a
-    cluster: ``point`` a module-level function, ``p`` and its result picklable), then
+    remote runner: ``point`` a module-level function, ``p`` and its result picklable), then
     ``assemble(results)`` on the client, the results in the order of ``points``; it returns
     the :class:`SweepResult`, or a further Plan (points that depend on these results)."""
     points: list
@@ -179,12 +181,14 @@ def _start(name: str, quick: bool):
 
 
 def run(names: list[str] | None = None, quick: bool = False,
-        progress: Callable[[str], None] | None = None) -> list[SweepResult]:
-    """Run the named sweeps (default: all) in registry order."""
+        progress: Callable[[str], None] | None = None,
+        runner: Runner = LOCAL) -> list[SweepResult]:
+    """Run the named sweeps (default: all) in registry order, their points as units of
+    ``runner``: here one sweep after another, with a ``progress`` line each; on a remote
+    runner every sweep's points at once (under the runner's own progress line)."""
     names = list(SWEEPS) if not names else [n for n in SWEEPS if n in names]
-    from .cluster import current
-    if current() is not None:      # one point per task, under the cluster's progress line
-        return _run_on_cluster(current(), names, quick)
+    if runner.remote:
+        return _run_remote(runner, names, quick)
     results = []
     for i, name in enumerate(names, start=1):
         if progress:
@@ -201,7 +205,7 @@ def run(names: list[str] | None = None, quick: bool = False,
 def run_one(name: str, quick: bool = False) -> SweepResult:
     """One sweep, its points one after another here; a crash becomes a failed never-happen
     check."""
-    from codermind.errors import CodermindError
+    from codermind.errors import CodermindError    # heavy: importing codermind starts Mitsuba
     t0 = time.perf_counter()
     try:
         result, _ = _start(name, quick)
@@ -215,7 +219,7 @@ def run_one(name: str, quick: bool = False) -> SweepResult:
     return result
 
 
-def _run_on_cluster(cluster, names: list[str], quick: bool) -> list[SweepResult]:
+def _run_remote(runner: Runner, names: list[str], quick: bool) -> list[SweepResult]:
     """Every sweep's points submitted at once (one task each), each sweep assembled here in
     registry order as its points come back. ``seconds``: the client's time for the plans and
     assembly plus the points' times on the workers."""
@@ -228,7 +232,7 @@ def _run_on_cluster(cluster, names: list[str], quick: bool) -> list[SweepResult]
             raise
         except Exception as e:          # noqa: BLE001  (a crash of the sweep's plan)
             plan, seconds = e, 0.0
-        futures = (cluster.submit_all(_timed, [(plan.point, p) for p in plan.points])
+        futures = (runner.submit_all(_timed, [(plan.point, p) for p in plan.points])
                    if isinstance(plan, Plan) else [])
         state[name] = [plan, futures, seconds]
     results = []
@@ -238,13 +242,13 @@ def _run_on_cluster(cluster, names: list[str], quick: bool) -> list[SweepResult]
             if isinstance(plan, Exception):
                 raise plan
             while isinstance(plan, Plan):
-                timed = list(cluster.results(futures))
+                timed = list(runner.results(futures))
                 seconds += sum(s for _, s in timed)
                 t0 = time.perf_counter()
                 plan = plan.assemble([r for r, _ in timed])
                 seconds += time.perf_counter() - t0
                 if isinstance(plan, Plan):
-                    futures = cluster.submit_all(_timed, [(plan.point, p) for p in plan.points])
+                    futures = runner.submit_all(_timed, [(plan.point, p) for p in plan.points])
             result = plan
         except CodermindError:
             raise

@@ -18,6 +18,8 @@ import math
 
 import numpy as np
 
+from codermind_ref.blob import field as zone_f
+
 from .stability import Plan, Series, SweepResult, finite_check_counts, finite_counts
 
 CRITICAL = 2.0 * math.sqrt(2.0)          # D / R where the neck closes
@@ -30,7 +32,6 @@ def _true_neck(d: float) -> float:
 
 def _true_gap(d: float, field: str) -> float:
     """Gap / R between the two surfaces along the axis (0 while connected)."""
-    from codermind_ref.blob import field as zone_f
     if d <= CRITICAL:
         return 0.0
     total = (lambda a: float(zone_f(a * a)) + float(zone_f((d - a) ** 2))) if field == "tutorial" \

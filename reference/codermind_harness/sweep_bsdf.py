@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from codermind.variants import set_variant
+from codermind_ref.transport import fresnel as port_fresnel
 
 from ._mitsuba import load_error
 from .stability import (Plan, Series, SweepResult, finite_check, finite_check_counts,
@@ -290,7 +291,6 @@ def _fresnel_point(p: tuple) -> dict:
             return {"values": _scalar_outputs(1.5) + _scalar_outputs(1.0)}
         except Exception as e:              # noqa: BLE001  (a failed check, not a crash)
             return {"error": f"{type(e).__name__}: {e}"}
-    from codermind_ref.transport import fresnel as port_fresnel
     mi = set_variant()
     _, density, side, quick = p
     cos_i = _cos_i(quick)
@@ -403,7 +403,7 @@ def _fresnel_assemble(results: list[dict]) -> SweepResult:
     for (d, s), (c, j) in jumps.items():
         if d != 1.0:
             r.lines.append(("x", math.degrees(math.acos(c)), ""))
-    r.notes.append("The spec says Density 1 gives R = 0 at every angle; its own formula gives "
+    r.notes.append("Density 1 gives R = 0 except near grazing (facts.md F8.4): the formula gives "
                    "R = 1 within 0.57 deg of grazing (sin^2 theta_t = sin^2 theta_i > 0.9999), "
                    "and both implementations follow the formula.")
     r.notes.append(f"TIR jumps (1 - R just before the cut): {jump_text}")

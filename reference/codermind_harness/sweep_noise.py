@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from codermind.variants import set_variant
+from codermind_ref.perlin import noise
 
 from .stability import (Plan, Series, SweepResult, finite_check_counts, finite_counts,
                         first_crossing, generator, states)
@@ -36,7 +37,6 @@ def _point(p: tuple) -> dict:
     texture = mi.load_dict({"type": "perlin"})
     kind = p[0]
     if kind == "magnitude":
-        from codermind_ref.perlin import noise
         _, m, n, state = p
         pts = _draw(generator(state), m, n)
         value = _evaluate(mi, texture, pts)

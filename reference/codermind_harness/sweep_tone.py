@@ -17,6 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+import codermind_ref as ref
+from codermind_ref import tonemap
+from codermind_ref.scene import Tonemap
+
 from .stability import Plan, Series, SweepResult
 
 SETS = {                        # (Midpoint, Power, Black)
@@ -37,7 +41,6 @@ SPECIAL = {"0": 0.0, "-0": -0.0, "1e-300": 1e-300, "1e-30": 1e-30, "1": 1.0, "1e
 
 
 def _bytes(v):
-    from codermind_ref import tonemap
     with np.errstate(invalid="ignore", over="ignore"):
         return tonemap.to_bytes(tonemap.srgb(np.asarray(v, dtype=np.float64)))
 
@@ -68,7 +71,6 @@ def _here(warnings: list[str], folder: str) -> list[str]:
 
 def _first_white(tm) -> float | None:
     """The smallest exposed radiance whose byte is the brightest (bisection on log c)."""
-    from codermind_ref import tonemap
     lo, hi = -30.0, 308.0
     if _bytes(tonemap.curve(np.array([10.0 ** hi]), tm))[0] != WHITE:
         return None
@@ -88,9 +90,6 @@ def _tone_point(p: tuple) -> dict:
     """("setting", label, quick): one tone-map setting over the radiance sweep;
     ("render", version, light): a tiny scene whose light is ``light``, its lit bytes and the
     render's new warnings."""
-    import codermind_ref as ref
-    from codermind_ref import tonemap
-    from codermind_ref.scene import Tonemap
     if p[0] == "render":
         _, version, light = p
         with tempfile.TemporaryDirectory() as tmp:
@@ -181,7 +180,6 @@ RADII_QUICK = [0.0, 1.0, 4.0, 20.0]
 
 def _exposure_point(radius: float) -> dict:
     """A lit sphere of ``radius`` centred between four probe rays: E, its bytes, warnings."""
-    import codermind_ref as ref
     with tempfile.TemporaryDirectory() as tmp:
         # the 64 x 64 image's probes sit at multiples of 4 pixels; the sphere is centred at
         # (34, 34) on the image plane (between probes), at the projection distance
@@ -200,7 +198,7 @@ def _exposure_point(radius: float) -> dict:
 
 
 def auto_exposure(quick: bool = False) -> Plan:
-    """Spec 2.5: E = -ln(1 - Midpoint) / M with M the RMS luminance of 16 x 16 probe rays,
+    """facts.md F6.3: E = -ln(1 - Midpoint) / M with M the RMS luminance of 16 x 16 probe rays,
     and E = -1 if M = 0. A lit sphere shrinks until no probe hits it: then E = -1.
     Points: each radius."""
     radii = RADII_QUICK if quick else RADII
@@ -222,7 +220,7 @@ def _exposure(radii: list[float], results: list[dict]) -> SweepResult:
     r.table = rows
     black = [row for row in rows if row["exposure"] == -1.0]
     missed = [row for row in black if row["radius"] > 0]
-    r.check("an all-black probe set gives E = -1 (spec 2.5)", rows[0]["exposure"] == -1.0,
+    r.check("an all-black probe set gives E = -1 (facts.md F6.3)", rows[0]["exposure"] == -1.0,
             f"E = {rows[0]['exposure']}")
     r.check("an empty scene renders black (bytes 0 outside the strip)",
             rows[0]["sphere_bytes"] == [0], f"bytes {rows[0]['sphere_bytes']}")

@@ -14,6 +14,8 @@ from decimal import Decimal, localcontext
 
 import numpy as np
 
+from codermind_ref import blob as port_blob
+
 from . import zone_exact
 from .stability import Plan, Series, SweepResult
 
@@ -26,9 +28,8 @@ GROWTH_LIMIT = 1e-10
 
 
 def _port(o: np.ndarray, d: np.ndarray, centers: np.ndarray, radius: float, tmax: float = np.inf):
-    from codermind_ref import blob
     with np.errstate(all="ignore"):
-        t, hit = blob.hit(np.ascontiguousarray(o.T), np.ascontiguousarray(d.T),
+        t, hit = port_blob.hit(np.ascontiguousarray(o.T), np.ascontiguousarray(d.T),
                           np.full(o.shape[0], tmax), centers, radius)
     return t, hit
 
@@ -68,13 +69,12 @@ def _sphere_reference(o, d, radius) -> Decimal | None:
 
 def _normal(p: np.ndarray) -> np.ndarray:
     """Outward unit normals of the piecewise field at points p (n, 3)."""
-    from codermind_ref import blob
     grad = np.zeros_like(p)
     for c in CENTERS:
         v = p - c
         x = (v * v).sum(axis=1) / RADIUS ** 2
-        depth = np.searchsorted(-blob.RATIO[:blob.ZONES], -x, side="left")
-        grad += (blob.SLOPE[depth] * 2 / RADIUS ** 2)[:, None] * v
+        depth = np.searchsorted(-port_blob.RATIO[:port_blob.ZONES], -x, side="left")
+        grad += (port_blob.SLOPE[depth] * 2 / RADIUS ** 2)[:, None] * v
     return -grad / np.linalg.norm(grad, axis=1, keepdims=True)
 
 

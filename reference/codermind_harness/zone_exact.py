@@ -1,4 +1,4 @@
-"""The tutorial's blob field (spec 2.10) solved in 50-digit decimal arithmetic.
+"""The tutorial's blob field (facts.md F11) solved in 50-digit decimal arithmetic.
 
 The exact answer to the question the port's zone method (``codermind_ref.blob.hit``) answers
 in float64: where does a ray first meet ``sum_i f(|p - c_i|^2 / R^2) = 1``, with ``f`` the
@@ -9,7 +9,7 @@ roots) is done with :mod:`decimal` at 50 significant digits, so the result is ex
 more digits than any float64 result can have. No epsilon or distance limit is applied other
 than ``t_min`` (default 0: the first root in front of the origin).
 
-Written independently of the port (its tables are re-stated here from the spec), so that the
+Written independently of the port (its tables are re-stated here from facts.md F11.2), so that the
 two agree only if both are right. Slow (about a millisecond per ray): for sweeps, not renders.
 """
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 from decimal import Decimal, getcontext, localcontext
 
 PRECISION = 50
-# The zone tables of spec 2.10, as written in the tutorial's code, by zone depth 0..9 (the
+# The zone tables of facts.md F11.2, as written in the tutorial's code, by zone depth 0..9 (the
 # number of zone spheres containing the point; depth 0 = outside all: f = 0).
 RATIO = tuple(Decimal(v) for v in ("10", "5", "3.33333", "2.5", "2", "1.66667", "1.42857",
                                    "1.25", "1.1111", "1"))

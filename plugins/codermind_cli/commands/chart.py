@@ -42,12 +42,12 @@ def run(args: argparse.Namespace) -> int:
                                  f"scenes (no page1.xml)")
         os.environ["CODERMIND_SCENES"] = str(Path(args.scenes).resolve())
     from codermind_harness import chart
-    from codermind_harness.cluster import open_cluster
+    from codermind_harness.cluster import open_runner
     from codermind_harness.sides import HarnessError
     try:
-        with open_cluster(args.cluster):
+        with open_runner(args.cluster) as runner:
             paths, table = chart.run(Path(args.output), args.only, quick=args.quick,
-                                     cost=not args.no_cost)
+                                     cost=not args.no_cost, runner=runner)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
     except OSError as e:

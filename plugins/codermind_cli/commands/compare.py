@@ -90,7 +90,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
-    from codermind_harness.cluster import open_cluster
+    from codermind_harness.cluster import open_runner
     from codermind_harness.compare import Options, Thresholds, format_table, run as compare
     from codermind_harness.sides import HarnessError
 
@@ -116,8 +116,8 @@ def run(args: argparse.Namespace) -> int:
                   noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds,
                   reference=None if args.reference is None else Path(args.reference))
     try:
-        with open_cluster(args.cluster, progress=not args.quiet):
-            records, status = compare(args.scenes, opt, args.variant)
+        with open_runner(args.cluster, progress=not args.quiet) as runner:
+            records, status = compare(args.scenes, opt, args.variant, runner)
     except HarnessError as e:
         raise CodermindError(str(e)) from None
     except OSError as e:        # the output folder or a file in it cannot be written

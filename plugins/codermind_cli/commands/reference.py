@@ -47,12 +47,12 @@ def run(args: argparse.Namespace) -> int:
     base = Path(args.output) if args.output else Path.cwd() / scene_path.stem
     if base.suffix.lower() in (".tga", ".png", ".exr"):
         base = base.with_suffix("")
-    from codermind_harness.cluster import open_cluster
-    with open_cluster(args.cluster) as cluster:     # tiles of rows as tasks; same image
+    from codermind_harness.cluster import open_runner
+    with open_runner(args.cluster) as runner:     # tiles of rows as units; same image
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
-                            progress=None if cluster else PortProgress(scene_path.name),
-                            tile_map=cluster.tile_map if cluster else None)
+                            progress=None if runner.remote else PortProgress(scene_path.name),
+                            tile_map=runner.tile_map)
     for warning in result.warnings[len(scene.warnings):]:     # found while rendering
         print(f"codermind: warning: {warning}", file=sys.stderr)
     try:

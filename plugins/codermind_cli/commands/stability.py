@@ -36,14 +36,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
     from codermind_harness import stability
-    from codermind_harness.cluster import open_cluster
+    from codermind_harness.cluster import open_runner
 
     outdir = Path(args.output)
     command = "codermind stability -o " + str(args.output) + (" --quick" if args.quick else "") + \
         (" --only " + " ".join(args.only) if args.only else "")
-    with open_cluster(args.cluster):
+    with open_runner(args.cluster) as runner:
         results = stability.run(args.only, quick=args.quick,
-                                progress=lambda line: print(line, file=sys.stderr, flush=True))
+                                progress=lambda line: print(line, file=sys.stderr, flush=True),
+                                runner=runner)
     try:
         stability.write_report(results, outdir, command)
     except OSError as e:

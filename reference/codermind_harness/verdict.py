@@ -1,0 +1,107 @@
+"""The verdict of ``codermind compare``: the thresholds and the rules that turn the tests'
+numbers into failures, one sentence each (a scene passes when it has none)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import metrics
+
+
+@dataclass
+class Thresholds:
+    pass_rate: float = 0.99       #: smallest share of sub-samples passing the z-test
+    flip: float = 0.01            #: largest mean FLIP of a scene without randomness
+    alpha: float = metrics.ALPHA
+    rtol: float = metrics.RTOL
+    atol: float = metrics.ATOL
+    exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
+    pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
+    #: random scenes: FLIP <= floor (1 + k0 + k / sqrt(pixels)) + eps (metrics.flip_limit)
+    flip_k: float = metrics.FLIP_K
+    flip_k0: float = metrics.FLIP_K0
+    flip_eps: float = metrics.FLIP_EPS
+
+
+
+
+@dataclass
+class Tests:
+    """The tests of one scene against the port (``compare.measure``)."""
+    z: metrics.ZTest                        #: per sub-sample, linear radiance
+    rows: slice                             #: display rows outside the calibration strip
+    flip_mean: float
+    flip_map: np.ndarray
+    rel_mse: float
+    rel_mse_noise: float                    #: the relative MSE the variances alone explain
+    exposure: metrics.ExposureTest | None   #: page 4: the two sides' auto exposures
+    pooled: dict | None                     #: random scenes: tiles and objects
+    flip_noise: float | None = None         #: the port against itself (seed + 1)
+    noise_z: dict | None = None             #: the z-test of the port against itself
+
+
+def port_failures(t: Tests, random: bool, pixels: int, th: Thresholds) -> tuple[list[str], float]:
+    """The failures of a scene against the port, and the FLIP limit it was held to: a fixed
+    one without randomness, else the noise floor's (metrics.flip_limit)."""
+    failures = []
+    if t.z.pass_rate < th.pass_rate:
+        failures.append(f"z-test pass rate {t.z.pass_rate:.5f} < {th.pass_rate}")
+    flip_limit = th.flip if not random else metrics.flip_limit(
+        t.flip_noise, pixels, th.flip_k, th.flip_eps, th.flip_k0)
+    if t.flip_mean > flip_limit:
+        failures.append(f"mean FLIP {t.flip_mean:.5f} > {flip_limit:.5f}" + (
+            "" if not random else f" (its noise floor {t.flip_noise:.5f} x (1 + {th.flip_k0:g} "
+            f"+ {th.flip_k:g} / sqrt({pixels} pixels)) + {th.flip_eps:g})"))
+    if t.exposure is not None and not t.exposure.passed:
+        failures.append(exposure_failure(t.exposure))
+    for kind, p in (t.pooled or {}).items():
+        if not p["passed"]:
+            g, c, zz, n = p["failing"][0]
+            failures.append(f"pooled z over {kind}: {len(p['failing'])}"
+                            f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
+                            f"{p['z_critical']:.3g} (worst: {g} {c}, Z {zz:.3g} over "
+                            f"{n} sub-samples)")
+    return failures, flip_limit
+
+
+def exposure_failure(e: metrics.ExposureTest) -> str:
+    where = (f"Welch t = {e.t:.2f} (df {e.df:.1f}), p = {e.p:.2g} < {e.alpha}"
+             if e.method == "welch" else "outside the float tolerance (neither side varies)")
+    return (f"auto exposure: Mitsuba {e.mean[0]:.4f} (sd {e.sd[0]:.4f}) vs port "
+            f"{e.mean[1]:.4f} (sd {e.sd[1]:.4f}) over {e.n[0]} seeds each, "
+            f"{100 * e.rel_diff:+.2f} %: {where}")
+
+
+# -- against a reference image ---------------------------------------------------------------
+
+def bytes_failures(ba: metrics.ByteAgreement, flip_mean: float, th: Thresholds) -> list[str]:
+    """An 8-bit reference of a scene without randomness: bytes within one level, FLIP."""
+    failures = []
+    if ba.within_one < th.pass_rate:
+        failures.append(f"bytes within 1 level {ba.within_one:.5f} < {th.pass_rate}")
+    if flip_mean > th.flip:
+        failures.append(f"mean FLIP {flip_mean:.5f} > {th.flip}")
+    return failures
+
+
+def float_failures(z: metrics.ZTest, th: Thresholds) -> list[str]:
+    """A linear reference of a scene without randomness: the float tolerance."""
+    if z.pass_rate < th.pass_rate:
+        return [f"sub-samples within the float tolerance {z.pass_rate:.5f} < {th.pass_rate}"]
+    return []
+
+
+def statistical_failures(bt: metrics.BlurTest, mt: metrics.MeanTest) -> list[str]:
+    """A random scene against a reference: the blurred and the mean difference against the
+    noise floor."""
+    failures = []
+    if not bt.passed:
+        failures.append(f"blurred difference: {bt.failing_pixels} pixels beyond the noise floor "
+                        f"(max |t| {bt.max_abs_z:.3g} > {bt.z_critical:.3g})")
+    if not mt.passed:
+        worst = int(np.argmin(mt.p))
+        failures.append(f"mean difference {mt.mean_diff[worst]:+.3g} (channel {'RGB'[worst]}), "
+                        f"z {mt.z[worst]:.3g}, p {mt.p[worst]:.2g} < {mt.alpha:.2g}")
+    return failures
