@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-import blob_reference as ref  # noqa: E402
+from support import blob_reference as ref  # noqa: E402
 
 from codermind.blobmesh import build_blob_mesh  # noqa: E402
 

@@ -1,6 +1,6 @@
 """The gradient table: every differentiable parameter of every plugin under every option
-set of tests/gradient_cases.py, AD against finite differences, with more samples than CI
-(tests/test_gradient_table.py runs the default-options rows), and the reverse-mode check.
+set of tests/support/gradient_cases.py, AD against finite differences, with more samples than CI
+(tests/plugins/test_gradient_table.py runs the default-options rows), and the reverse-mode check.
 
     python benchmarks/gradients.py [--spp 64] [--seeds 4] [--only TEXT] [--write-results]
 
@@ -19,7 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-import gradient_cases as cases  # noqa: E402
+from support import gradient_cases as cases  # noqa: E402
 
 OUT = ROOT / "docs" / "results" / "gradients.md"
 
@@ -103,9 +103,9 @@ def table(measured, setups_run, spp: int, seeds: int, command: str, seconds: flo
         "each derivative well posed and the tolerance (the paired differences' own noise "
         "over pixels and seeds, the change of the difference between steps h and 2h, and "
         "float32 rounding) are in "
-        "[tests/gradient_cases.py](../../tests/gradient_cases.py). CI runs the default "
+        "[tests/support/gradient_cases.py](../../tests/support/gradient_cases.py). CI runs the default "
         "options' rows and a few others with fewer samples "
-        "([tests/test_gradient_table.py](../../tests/test_gradient_table.py)). Evidence of "
+        "([tests/plugins/test_gradient_table.py](../../tests/plugins/test_gradient_table.py)). Evidence of "
         "the plugins' AD wiring, not of the renderer.",
         "",
         f"Recorded {datetime.date.today().isoformat()} on {machine()}, Mitsuba "

@@ -1,12 +1,12 @@
-"""The long run of the random-scene properties (tests/test_random_scenes.py,
-tests/test_random_scene_parameters.py) on many scenes drawn by tests/random_scenes.py.
+"""The long run of the random-scene properties (tests/plugins/test_random_scenes.py,
+tests/plugins/test_random_scene_parameters.py) on many scenes drawn by tests/support/random_scenes.py.
 
 Every scene goes to a worker process (a crash ends the worker, which is counted and
 restarted) for
 
 - ``compare`` in llvm_ad_rgb: ``path`` (no Russian roulette) and ``tutorialpath`` clean
   (``exact_hits`` false), K = 8 renders a side of 16 spp, and the per-scene two-sample test
-  at alpha = 1e-3 (tests/zstat.py ``t_test``) unless the scene has a blob without a mesh
+  at alpha = 1e-3 (tests/support/zstat.py ``t_test``) unless the scene has a blob without a mesh
   (which ``path`` does not see); the renders also count for crashes, refusals and
   non-finite pixels;
 - every ``--extra-every``-th scene, one more llvm_ad_rgb integrator in turn: ``prb``,
@@ -45,7 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-import random_scenes as rs  # noqa: E402
+from support import random_scenes as rs  # noqa: E402
 
 K, K_SPP, ALPHA = 8, 16, 1e-3
 EXTRA = ("prb", "direct", "tutorialpath_strict")
@@ -190,11 +190,11 @@ def page(s: dict, records: list[dict], command: str, wall: float) -> str:
     lines = [
         "# Random scenes: the long run",
         "",
-        "Scenes nobody tuned anything to, drawn by `tests/random_scenes.py` (any world size "
+        "Scenes nobody tuned anything to, drawn by `tests/support/random_scenes.py` (any world size "
         "from 0.01 to 1000 units, built-in shapes, BSDFs and lights mixed with every plugin "
         "of this package; see its docstring), each rendered as "
         "`benchmarks/random_scenes.py` describes. The same properties run in CI on a few "
-        "scenes (`tests/test_random_scenes.py`, `tests/test_random_scene_parameters.py`).",
+        "scenes (`tests/plugins/test_random_scenes.py`, `tests/plugins/test_random_scene_parameters.py`).",
         "",
         f"- Command: `{command}`",
         f"- Date: {datetime.date.today().isoformat()}; machine: {machine()}; "

@@ -268,7 +268,7 @@ def index_page(plugins: list[Plugin]) -> str:
         "# Plugin reference", "",
         "Every plugin of this package, one page each, made from its docstring (Mitsuba's "
         "`pluginparameters` format) by `python docs/generate_reference.py`; "
-        "`tests/test_docs.py` fails when a page here differs from what the docstrings give. "
+        "`tests/project/test_docs.py` fails when a page here differs from what the docstrings give. "
         "`import codermind` registers them all with Mitsuba (see the [README](../../README.md)).",
         "",
         "| XML | type | what | source |", "| --- | --- | --- | --- |", *rows, "",

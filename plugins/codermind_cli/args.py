@@ -5,7 +5,7 @@ exit status 2.
 
 Seeds are in [0, 2^32): the range both Mitsuba (``mi.render(seed=...)``, a 32-bit unsigned
 seed) and numpy's ``np.random.seed`` accept, so one seed can be given to either side of
-``codermind compare`` (tests/test_cli_args.py checks the bounds against both).
+``codermind compare`` (tests/cli/test_cli_args.py checks the bounds against both).
 """
 
 from __future__ import annotations

@@ -2,11 +2,11 @@
 stability sweeps that drive each method into the regime where it fails.
 
 It sits between the command line (codermind_cli, which imports it) and the plugins
-(codermind) and the port (codermind_ref), which it imports; see tests/test_layers.py.
+(codermind) and the port (codermind_ref), which it imports; see tests/project/test_layers.py.
 Importing this package imports nothing heavy; each module imports what it needs, inside a
 function only what is slow to import (``codermind``, which starts Mitsuba, ``mitsuba``,
 ``drjit``, ``scipy``, ``matplotlib``) or optional (``distributed``); no module imports another
-in a circle (tests/test_layers.py). The work fans out through the runner the command line
+in a circle (tests/project/test_layers.py). The work fans out through the runner the command line
 hands down (:mod:`codermind_harness.runner`):
 
 - :mod:`codermind_harness.metrics`: the per-sub-sample two-sample z-test, FLIP with guarded

@@ -8,8 +8,8 @@ options and handed down (nothing reads it from a global).
 
 Units: the port's tiles (:meth:`RemoteRunner.tile_map`), the Mitsuba side of a compare
 (``sides.render_mitsuba``), a chart point, a stability sweep point. A unit's result depends
-only on its inputs, so the outputs do not depend on the runner (tests/test_runner.py,
-tests/test_cluster.py). A runner that is not :class:`Runner` itself pickles what it sends
+only on its inputs, so the outputs do not depend on the runner (tests/harness/test_runner.py,
+tests/harness/test_cluster.py). A runner that is not :class:`Runner` itself pickles what it sends
 (module-level functions, picklable arguments) and runs its units together.
 """
 

@@ -15,7 +15,7 @@ field (each point of the surface is counted from one source), contributes
 
 K, K0 and the cost per triangle were measured by ``benchmarks/calibrate_blob_cost.py``
 (spheres, pairs, the page-4 blob and 12 random blobs of 2-6 sources, max_error R/5000 to
-R/100, both fields; ``tests/test_blob_mesh.py`` checks the factor on random blobs): the
+R/100, both fields; ``tests/plugins/test_blob_mesh.py`` checks the factor on random blobs): the
 mesher's triangle count was 0.86-1.13 times the estimate for every mesh above 12 000
 triangles; below, coarse zone-field blobs of several sources had up to 1.8 times it (the
 cut along the field's creases adds triangles that the first pass's term does not count),

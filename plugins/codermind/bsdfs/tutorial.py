@@ -60,7 +60,7 @@ class TutorialBSDF(mi.BSDF):
     the event's probability :math:`p` (value unchanged; its derivative, averaged over the
     roulette, is that of the expected weight :math:`\sum p\,w`), and the refracted
     direction follows ``density``. Checked against finite differences of the expectation
-    (tests/test_gradients.py). An integrator sees these derivatives if it differentiates
+    (tests/plugins/test_gradients.py). An integrator sees these derivatives if it differentiates
     ``sample``'s weight (Dr.Jit AD through :monosp:`path` with evaluated loops does);
     :monosp:`prb` takes the derivatives of the indirect light from ``eval`` at the sampled
     direction instead, which for a delta event here is the lighting term, not the event.

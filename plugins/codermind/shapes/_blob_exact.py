@@ -23,7 +23,7 @@ class BlobSurface:
     makes a new one when its parameters change."""
 
     #: Newton steps from the mesh's hit; the error falls quadratically within a zone piece,
-    #: so 2 take a max_error start to float32 rounding (tests/test_blob_plugin.py)
+    #: so 2 take a max_error start to float32 rounding (tests/plugins/test_blob_plugin.py)
     REFINE_STEPS = 2
     #: the tutorial's blob epsilon (facts.md F4, world units): a crossing this close to a ray's
     #: origin is the surface the ray leaves (tutorialpath's exact_hits)
