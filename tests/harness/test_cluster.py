@@ -23,7 +23,7 @@ import time
 import numpy as np
 import pytest
 
-from support import ROOT, run_cli
+from support import ROOT, fake_sweeps, run_cli
 
 distributed = pytest.importorskip("distributed")
 pytestmark = pytest.mark.cluster
@@ -251,28 +251,7 @@ def test_stability_quick_run_on_the_cluster_gives_the_local_records(cluster, tmp
 def plan_sweeps(monkeypatch):
     """Sweeps made of points computed by math.sqrt (importable on any worker): one in two
     rounds (the second needs the first's results), one whose point raises."""
-    import math
-    import types
-    from codermind_harness import stability
-
-    def two_rounds(quick):
-        def second(first):
-            def finish(roots):
-                r = stability.SweepResult("two_rounds", "two rounds", "x", "y", "-", roots[0])
-                r.table = [{"first": first, "second": roots}]
-                return r
-            return stability.Plan([sum(first)], math.sqrt, finish)
-        return stability.Plan([1.0, 4.0, 9.0], math.sqrt, second)
-
-    def crashes(quick):
-        return stability.Plan([4.0, -1.0], math.sqrt, lambda roots: None)
-
-    module = types.ModuleType("codermind_harness._fake_plans")
-    module.two_rounds, module.crashes = two_rounds, crashes
-    monkeypatch.setitem(sys.modules, "codermind_harness._fake_plans", module)
-    monkeypatch.setattr(stability, "SWEEPS", {
-        "two_rounds": ("_fake_plans", "two_rounds", "two rounds of points"),
-        "crashes": ("_fake_plans", "crashes", "a point raises")})
+    fake_sweeps.install(monkeypatch)
 
 
 def test_sweep_plans_in_two_rounds_and_a_crashed_point_on_the_cluster(cluster, plan_sweeps):

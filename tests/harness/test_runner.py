@@ -8,13 +8,11 @@ from __future__ import annotations
 
 import math
 import pickle
-import sys
-import types
 
 import numpy as np
 import pytest
 
-from support import ROOT
+from support import ROOT, fake_sweeps
 
 SCENES = ROOT / "scenes"
 
@@ -51,25 +49,7 @@ def test_a_pool_renders_the_port_bit_identically(pool):
 def test_sweep_points_in_a_pool_give_the_local_results(pool, monkeypatch):
     """Two rounds of points (the second needs the first's), and a point that raises."""
     from codermind_harness import stability
-
-    def two_rounds(quick):
-        def second(first):
-            def finish(roots):
-                r = stability.SweepResult("two_rounds", "two rounds", "x", "y", "-", roots[0])
-                r.table = [{"first": first, "second": roots}]
-                return r
-            return stability.Plan([sum(first)], math.sqrt, finish)
-        return stability.Plan([1.0, 4.0, 9.0], math.sqrt, second)
-
-    def crashes(quick):
-        return stability.Plan([4.0, -1.0], math.sqrt, lambda roots: None)
-
-    module = types.ModuleType("codermind_harness._fake_plans")
-    module.two_rounds, module.crashes = two_rounds, crashes
-    monkeypatch.setitem(sys.modules, "codermind_harness._fake_plans", module)
-    monkeypatch.setattr(stability, "SWEEPS", {
-        "two_rounds": ("_fake_plans", "two_rounds", "two rounds of points"),
-        "crashes": ("_fake_plans", "crashes", "a point raises")})
+    fake_sweeps.install(monkeypatch)
     for two, crashed in (stability.run(), stability.run(runner=pool)):
         assert two.table == [{"first": [1.0, 2.0, 3.0], "second": [6.0 ** 0.5]}]
         assert not crashed.passed
