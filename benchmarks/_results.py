@@ -63,13 +63,14 @@ def machine() -> str:
 
 
 def commit() -> str:
-    """The checkout's commit, marked when code (anything outside docs/) has uncommitted
-    changes."""
+    """The checkout's commit, marked when the code that measures (plugins/, reference/,
+    benchmarks/, scenes/) has uncommitted changes."""
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True,
                               check=False).stdout.strip()
     head = git("rev-parse", "--short", "HEAD") or "unknown"
-    return head + (" with uncommitted changes" if git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs")
+    return head + (" with uncommitted changes" if git("status", "--porcelain", "--untracked-files=no", "--", "plugins", "reference",
+                   "benchmarks", "scenes")
                    else "")
 
 
