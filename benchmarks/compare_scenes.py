@@ -43,8 +43,8 @@ def row(name: str, rec: dict) -> list:
                    + " / ".join(f"{v['z_critical']:.3g}" for v in pooled.values()) + ")"
                    if pooled else "-")
     e = rec.get("exposure_test")
-    exposure = "-" if not e else f"p = {e['p']:.2g}"
-    flip = f"{rec['flip_mean']:.5f} / {rec['flip_limit']:.5f}"
+    exposure = "-" if not e or e.get("p") is None else f"p = {e['p']:.2g}"
+    flip = f"{rec['flip_mean']:.5f} / {_g(rec['flip_limit'], '.5f')}"
     if rec.get("flip_noise") is not None:
         flip += f" (noise alone {rec['flip_noise']:.5f})"
     verdict = "pass" if rec["passed"] else f"**FAIL** ({which(rec['failures'])})"
