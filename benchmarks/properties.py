@@ -31,15 +31,15 @@ def parse(output: str) -> list[list]:
     outcome = {m[1]: m[0] for m in re.findall(r"^(PASSED|FAILED|ERROR|SKIPPED) (\S+)", output,
                                                 re.M)}
     stats = {}
-    for block in re.split(r"\n(?=\S+::\S+:\n)", output):
-        head = re.match(r"(\S+::\S+):\n", block)
-        if not head:
-            continue
-        runs = re.search(r"- during generate phase \(([\d.]+) seconds\):\s*\n\s*- Typical runtimes:"
-                         r".*?\n\s*- (\d+) passing examples, (\d+) failing examples, "
-                         r"(\d+) invalid examples", block, re.S)
-        if runs:
-            stats[head[1]] = (float(runs[1]), int(runs[2]), int(runs[3]), int(runs[4]))
+    heads = list(re.finditer(r"^(\S+::\S+):$", output, re.M))
+    for head, nxt in zip(heads, heads[1:] + [None]):
+        block = output[head.end():nxt.start() if nxt else len(output)]
+        phase = re.search(r"during generate phase \(([\d.]+) seconds\)", block)
+        counts = re.search(r"(\d+) passing(?: examples)?, (\d+) failing(?: examples)?,"
+                           r"(?: and)? (\d+) invalid", block)
+        if counts:
+            stats[head[1]] = (float(phase[1]) if phase else None, int(counts[1]),
+                              int(counts[2]), int(counts[3]))
     rows = []
     for test in sorted(set(outcome) | set(stats)):
         seconds, passing, failing, invalid = stats.get(test, (None, "-", "-", "-"))
