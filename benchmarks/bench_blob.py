@@ -7,18 +7,25 @@ at most PD |p - eye| / z^2 * e pixels (radially; the largest factor over the blo
 vertices is used), so max_error = 0.25 px / that factor.
 
     python benchmarks/bench_blob.py [--repeat 7] [--field tutorial|exact|both]
+                                    [--write-results [PATH]]
+
+A timing: run it on a quiet machine. ``--write-results`` writes the table to
+docs/results/blob.md (section ``build``).
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
 
 import numpy as np
 from skimage.measure import marching_cubes
 
 from codermind.blobmesh import build_blob_mesh
+
+import _results
 
 CENTERS = np.array([(160, 290, 320), (400, 290, 480), (250, 140, 400)], float)
 RADIUS = 80.0
@@ -64,11 +71,13 @@ def run(field: str, max_error: float, repeat: int):
     return statistics.median(times), min(times), statistics.median(base), mesh
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--field", default="both", choices=["tutorial", "exact", "both"])
-    args = ap.parse_args()
+    _results.add_argument(ap, "blob.md")
+    args = ap.parse_args(argv)
+    rows = []
     fields = ["tutorial", "exact"] if args.field == "both" else [args.field]
     build_blob_mesh(CENTERS, RADIUS, "exact", 1.0)  # warm-up (imports, caches)
     scale = px_per_unit(build_blob_mesh(CENTERS, RADIUS, "tutorial", 0.5).vertices)
@@ -87,7 +96,17 @@ def main() -> None:
                   f"{m.achieved_error:9.4f} {med:9.3f} {best:7.3f} {med / TARGET_SECONDS:7.2f} "
                   f"{base:10.3f} {med / base:7.2f} {m.info['cell_size']:6.2f} "
                   f"{m.info['refine_passes']:6d}")
+            rows.append([field, f"{max_error:.3f}", f"{max_error * scale:.3g}",
+                         f"{len(m.faces):,}", f"{m.achieved_error:.3f}", f"{med:.2f}",
+                         f"{base:.3f}", f"{med / base:.0f}"])
+    if args.write_results:
+        body = (f"The page-4 blob is magnified at most {scale:.4f} px per world unit, so "
+                f"0.25 px is max_error {target:.4f}; medians of {args.repeat} builds.\n\n"
+                + _results.table(["field", "max_error", "px", "triangles", "measured error",
+                                  "build s", "plain MC s", "build / plain MC"], rows))
+        _results.write(args.write_results, body, section="build")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -2,6 +2,7 @@
 port's own process pool (1 and 2 processes), side by side in one run.
 
     python benchmarks/bench_cluster.py [--runs 3] [--complexity 1] [--per-task 1 2 4]
+                                       [--write-results [PATH]]
 
 Prints the median wall time per configuration (the configurations interleaved in each run,
 rotated, after one untimed warm-up run each; the clusters are started before the timing, their
@@ -9,8 +10,8 @@ start-up reported apart), the speed-up against one process, the overhead per tas
 one worker against one process, divided by the tasks), the round trip of an empty task and the
 smallest task that pays on 2 workers: a task of t seconds with an overhead o is worth sending
 when t > o / (workers - 1). Every image is checked bit-identical to the one-process render.
-Not a test: the machine may be shared; read the ratios with the load printed at the start and
-the end.
+A timing: run it on a quiet machine. ``--write-results`` writes the table to
+docs/results/cluster.md.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import functools
 import os
 import pickle
 import statistics
+import sys
 import time
 from pathlib import Path
 
@@ -30,6 +32,8 @@ import codermind_ref as ref
 from codermind_harness.cluster import Cluster
 from codermind_ref.driver import TILE_RAYS, _Job
 
+import _results
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -37,13 +41,14 @@ def _noop(x):
     return x
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--complexity", type=int, default=1)
     parser.add_argument("--per-task", type=int, nargs="+", default=[1, 2, 4],
                         help="tiles per task on the 2-worker cluster")
-    args = parser.parse_args()
+    _results.add_argument(parser, "cluster.md")
+    args = parser.parse_args(argv)
     scene = ref.parse_scene(ROOT / "scenes" / "page4.txt")
     print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} on "
           f"{os.cpu_count()} cores; page 4 {scene.width}x{scene.height}, Complexity "
@@ -120,7 +125,20 @@ def main() -> None:
           f"{pays / per_tile * TILE_RAYS:,.0f} rays of this render "
           f"(o = the larger of the two overheads above)")
     print(f"load average at the end {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if args.write_results:
+        body = (_results.table(["configuration", "median s", "vs 1 process"],
+                               [[n, f"{med[n]:.2f}", f"{p1 / med[n]:.2f}x"] for n in names])
+                + f"\nOne tile ({tiles} tiles of <= {TILE_RAYS} rays) in one process: "
+                f"{per_tile:.3f} s; overhead per task (local:1 against one process): "
+                f"{overhead * 1e3:.0f} ms; an empty task's round trip "
+                f"{statistics.median(trip) * 1e3:.1f} ms; the render's job "
+                f"({job_mb:.1f} MiB pickled) sent to a worker {statistics.median(sends):.2f} s; "
+                f"smallest task that pays on 2 workers: {pays * 1e3:.0f} ms, about "
+                f"{pays / per_tile * TILE_RAYS:,.0f} rays. Load average at the end "
+                f"{os.getloadavg()[0]:.1f}.\n")
+        _results.write(args.write_results, body)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -9,7 +9,7 @@ the depth bound cuts the paths short):
 * maximal: max_depth 11 (the tutorial's 10 segments), ``--max-spp`` samples per sub-sample
   where the scene is deterministic (the extra samples are identical, so the images agree up
   to rounding), the scene's Complexity where it is not (a different count would change the
-  expected image: spec 2.5), and blob max_error = chosen / 4;
+  expected image: facts.md F6), and blob max_error = chosen / 4;
 * depth 10: the chosen model with max_depth 11 (what the depth choice alone saves);
 * all with the tutorial's pipeline (lights summed, the same fixed exposure, the same seed);
   timed from loading (the blob mesh is built then) to the 8-bit image, wall and CPU, medians
@@ -20,7 +20,10 @@ count of differing bytes; for the deterministic scenes it must be within the con
 (0.5 levels); for the stochastic page 4 the two differ by noise and by the blob mesh, and the
 mean difference of the chosen model at two seeds (the noise floor) is printed next to it.
 
-Run: ``python benchmarks/bench_model_choice.py [--runs 3] [--max-spp 64]``.
+A timing: run it on a quiet machine. ``--write-results`` writes the table to
+docs/results/model-choice.md.
+
+    python benchmarks/bench_model_choice.py [--runs 3] [--max-spp 64] [--write-results [PATH]]
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+import _results
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenes"
@@ -62,11 +67,13 @@ def weak_mirror(name: str, folder: Path) -> Path:
     return xml
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--max-spp", type=int, default=64)
-    args = p.parse_args()
+    _results.add_argument(p, "model-choice.md")
+    args = p.parse_args(argv)
+    floors = {}
 
     import drjit as dr
     import mitsuba as mi
@@ -122,6 +129,7 @@ def main() -> int:
             other = tr.render(scene, settings, seed=2, exposure=exposure).image
             tone = 255 * srgb_encode(other.tonemapped)
             floor = np.abs(tone - images["chosen"][0]).mean()
+            floors[name] = floor
             print(f"{name}: mean |diff| chosen vs maximal {level[1]:.4f} levels; chosen at "
                   f"two seeds (the noise) {floor:.4f}")
         rows.append((name, chosen, (maximal, max_spp), med, level, nbytes))
@@ -143,6 +151,23 @@ def main() -> int:
               f"{med['maximal'][0] / med['chosen'][0]:6.1f} "
               f"{med['maximal'][1] / med['chosen'][1]:9.1f} {level[0]:9.3f} {level[1]:9.4f} "
               f"{level[2]:8d} {nbytes:7d}")
+    if args.write_results:
+        table = []
+        for name, (cd, cs), (md, ms), med, level, nbytes in rows:
+            def model(d, s):
+                blob = next((v for k, v in d.items() if k.endswith("_max_error")), "-")
+                return f"{int(d['max_depth']) - 1}/{s}/{blob}"
+            table.append([name, model(cd, cs), f"{med['chosen'][0]:.2f} s",
+                          f"{med['depth 10'][0]:.2f} s", model(md, ms),
+                          f"{med['maximal'][0]:.2f} s",
+                          f"{med['maximal'][0] / med['chosen'][0]:.1f}",
+                          f"{level[0]:.3g} / {level[1]:.2g}", level[2], nbytes,
+                          f"{floors[name]:.3g}" if name in floors else "-"])
+        _results.write(args.write_results, _results.table(
+            ["scene", "chosen: depth/spp/blob max_error", "time", "chosen with depth 10",
+             "maximal", "time", "maximal / chosen", "max / mean difference, levels",
+             "pixels > 0.5 levels", "bytes differing", "noise: chosen at two seeds, mean"],
+            table))
     print("depth = path depth (Mitsuba max_depth - 1); diffs in 8-bit levels before truncation "
           "(px > 0.5: pixels differing by more than the convert target); bytes: differing "
           "bytes of the 640x480x3 image. Page 1-2 pixels on the mirror plane x = 320 hit two "

@@ -28,11 +28,14 @@ refraction, its bump, the textures, the lens, the lights, depths, blob tessellat
 size), with ``tutorialpath`` (and ``path``, one light scene), ``--breakdown-spp`` samples each.
 
 ``--only-tutorialpath`` times tutorialpath alone (as converted); ``--vector-width 8``
-compiles Dr.Jit's kernels 8 wide without AVX-512, as on an AVX2 host (see
-``bench_pass_plan.py``; Embree keeps its own kernels).
+compiles Dr.Jit's kernels 8 wide without AVX-512, as on an AVX2 host (:func:`llvm_width`;
+Embree keeps its own kernels).
 
-Run: ``nice python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]
-[--also 64] [--only-tutorialpath] [--vector-width 8]``.
+A timing: run it on a quiet machine. ``--write-results`` writes the table to
+docs/results/integrator.md (section ``speed``, or ``speed-w8`` with ``--vector-width 8``).
+
+    nice python benchmarks/bench_page4_c256.py [--runs 3] [--breakdown] [--complexity 256]
+        [--also 64] [--only-tutorialpath] [--vector-width 8] [--write-results [PATH]]
 """
 
 from __future__ import annotations
@@ -50,11 +53,32 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "tutorial" / "page4"
+import _results
+
+ROOT = _results.ROOT
+SHARED = _results.TUTORIAL / "page4"
 #: The original program, Complexity 256 (1024 samples per pixel), one core: measured on this
-#: machine class next to `codermind render` (issue 14; TUTORIAL_SPEC says about 148 s).
+#: machine class next to `codermind render` (issue 14; facts.md F14.2 says about 148 s).
 ORIGINAL_SECONDS = 145.7
+
+
+AVX512 = ("avx512f", "avx512vl", "avx512dq", "avx512bw", "avx512cd", "avx512vnni",
+          "avx512bf16", "avx512vbmi", "avx512vbmi2", "avx512bitalg", "avx512vpopcntdq",
+          "avx512ifma", "avx512fp16")
+
+
+def llvm_width(dr, width: int) -> int:
+    """Dr.Jit's LLVM vector width, after setting it to 8 without AVX-512 if ``width`` is 8."""
+    import ctypes
+    lib = ctypes.CDLL(str(Path(dr.__file__).parent / "libdrjit-core.so"))
+    cpu = lib._Z19jit_llvm_target_cpuv
+    cpu.restype = ctypes.c_char_p
+    get = lib._Z21jit_llvm_vector_widthv
+    get.restype = ctypes.c_uint32
+    if width == 8:
+        features = ",".join(["-" + f for f in AVX512] + ["+avx2", "+fma", "+f16c"])
+        lib._Z19jit_llvm_set_targetPKcS0_j(cpu(), features.encode(), ctypes.c_uint32(8))
+    return int(get())
 
 
 def cpu() -> float:
@@ -106,7 +130,7 @@ def convert(source: Path, folder: Path, name: str, edits=(), **options) -> Path:
     return xml
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scene", type=Path, default=SHARED / "derived_scene_complexity256.txt")
     p.add_argument("--complexity", type=int, default=256)
@@ -120,8 +144,9 @@ def main() -> int:
                    help="time only tutorialpath as converted (no mesh variants, no path)")
     p.add_argument("--vector-width", type=int, choices=(0, 8), default=0,
                    help="0: the host's (16 with AVX-512); 8: as an AVX2 host "
-                        "(bench_pass_plan.llvm_width)")
-    args = p.parse_args()
+                        "(llvm_width)")
+    _results.add_argument(p, "integrator.md")
+    args = p.parse_args(argv)
     if not args.scene.is_file():
         print(f"no scene {args.scene} (../shared/tutorial missing?); pass --scene", file=sys.stderr)
         return 1
@@ -129,8 +154,6 @@ def main() -> int:
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from bench_pass_plan import llvm_width
     width = llvm_width(dr, args.vector_width)
     import codermind  # noqa: F401
     from codermind.tutorial import render as tr
@@ -195,6 +218,7 @@ def main() -> int:
     print()
     print(f"Page 4, 640x480, medians of {args.runs}; {load_text()}; the original: "
           f"{ORIGINAL_SECONDS} s at Complexity 256 on one core (scaled linearly)")
+    table = []
     print(f"{'':28s} {'C':>4s} {'spp/px':>6s} {'wall s':>8s} {'CPU s':>8s} {'vs original':>12s} "
           f"{'vs tutorialpath':>16s} {'|byte diff|':>11s}")
     for c in complexities:
@@ -207,12 +231,28 @@ def main() -> int:
                           - images[(c, "tutorialpath")].astype(int)).mean()
             print(f"{name:28s} {c:4d} {4 * c:6d} {wall:8.2f} {cs:8.2f} {original / wall:11.2f}x "
                   f"{wall / base:15.2f}x {diff:11.3f}")
+            table.append([f"`{name}`", c, 4 * c, f"{wall:.1f}", f"{cs:.1f}",
+                          f"{original / wall:.2f}x", f"{wall / base:.2f}", f"{diff:.3f}"])
         print(f"{'original program, 1 core':28s} {c:4d} {4 * c:6d} {original:8.2f}")
         p_c = port * c / args.port_complexity
         print(f"{'port (clean, %d workers)' % workers:28s} {c:4d} {4 * c:6d} {p_c:8.2f} "
               f"{'':8s} {original / p_c:11.2f}x   (timed at C={args.port_complexity}, scaled)")
+        table.append([f"the port (clean, {workers} workers; timed at C = "
+                      f"{args.port_complexity}, scaled)", c, 4 * c, f"{p_c:.1f}", "-",
+                      f"{original / p_c:.2f}x", "-", "-"])
+        table.append(["the original program, 1 core (scaled from C = 256)", c, 4 * c,
+                      f"{original:.1f}", "-", "1", "-", "-"])
     print(f"fixed costs: load {t_load:.2f} s, first renders {t_first:.2f} s, probes {t_probe:.2f} s")
 
+    if args.write_results:
+        body = (f"Page 4 at 640 x 480, medians of {args.runs} runs; LLVM vector width {width}, "
+                f"{dr.thread_count()} Dr.Jit threads; fixed costs besides: load {t_load:.2f} s, "
+                f"first renders (JIT or kernel cache) {t_first:.2f} s, probes {t_probe:.2f} s.\n\n"
+                + _results.table(["", "Complexity", "samples per pixel", "wall s", "CPU s",
+                                  "speed-up vs the original", "time / tutorialpath",
+                                  "mean \\|byte difference\\| from tutorialpath"], table))
+        _results.write(args.write_results, body,
+                       section="speed" if args.vector_width == 0 else f"speed-w{args.vector_width}")
     if args.breakdown:
         breakdown(args, folder, tr, mi, dr)
     shutil.rmtree(folder, ignore_errors=True)

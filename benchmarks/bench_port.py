@@ -1,36 +1,37 @@
 """Time the standalone port on the tutorial scenes at 640x480 (page 4 at Complexity 1).
 
-    python benchmarks/bench_port.py [--runs N] [--workers 1 2]
+    python benchmarks/bench_port.py [--runs N] [--workers 1 2] [--write-results [PATH]]
 
 Prints, per scene and worker count, the median wall time over the runs (and the median CPU
 time of this process, which counts worker processes' work only for workers=1), and for page 4
-the ratio to the original program's 1.3 s on one core (spec header). Not a test: the machine
-may be shared, so read the medians together with the load printed at the start.
+the ratio to the original program's 1.3 s on one core (facts.md F14.2). A timing: run it on a
+quiet machine. ``--write-results`` writes the table to docs/results/port.md (section
+``speed``).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
+import sys
 import time
-from pathlib import Path
 
 import codermind_ref as ref
 
-TUTORIAL = Path(__file__).resolve().parents[2] / "shared" / "tutorial"
+import _results
+
 ORIGINAL_PAGE4_SECONDS = 1.3
+PAGE = "port.md"
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--tutorial", type=Path, default=TUTORIAL)
-    args = parser.parse_args()
-    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; "
-          f"{args.runs} runs per line; seed = run index")
-    print(f"{'scene':8} {'workers':>7} {'wall median':>12} {'cpu median':>11}  note")
+    parser.add_argument("--tutorial", type=_results.Path, default=_results.TUTORIAL)
+    _results.add_argument(parser, PAGE)
+    args = parser.parse_args(argv)
+    rows = []
     for page in (1, 2, 4):
         scene = ref.parse_scene(args.tutorial / f"page{page}" / "scene.txt")
         for workers in args.workers:
@@ -41,12 +42,16 @@ def main() -> None:
                 walls.append(time.perf_counter() - w0)
                 cpus.append(time.process_time() - c0)
             wall = statistics.median(walls)
-            note = ""
-            if page == 4:
-                note = f"{wall / ORIGINAL_PAGE4_SECONDS:.2f}x the original's 1.3 s (target <= 3x)"
-            cpu = f"{statistics.median(cpus):10.2f}s" if workers == 1 else f"{'-':>11}"
-            print(f"page{page:<4} {workers:>7} {wall:11.2f}s {cpu}  {note}", flush=True)
+            ratio = f"{wall / ORIGINAL_PAGE4_SECONDS:.2f}x" if page == 4 else "-"
+            cpu = f"{statistics.median(cpus):.2f} s" if workers == 1 else "-"
+            rows.append([f"page {page}", workers, f"{wall:.2f} s", cpu, ratio])
+            print(" | ".join(map(str, rows[-1])), flush=True)
+    table = _results.table(["scene", "workers", f"wall, median of {args.runs}",
+                            "CPU of this process", "page 4 / the original's 1.3 s"], rows)
+    if args.write_results:
+        _results.write(args.write_results, table, section="speed")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

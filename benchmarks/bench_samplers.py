@@ -1,6 +1,8 @@
 """Equal-error speed of the page-4 scene with ``tutorialpath`` and Mitsuba's samplers, on a crop.
 
     nice python benchmarks/bench_samplers.py [--rect 368,120,464,192] [--ref-spp 2048]
+    nice python benchmarks/bench_samplers.py --pairs --rect 0,0,640,480 --spp 16,64 --port-c 2,4 \
+        --samplers multijitter [--vector-width 8] [--write-results [PATH]]
 
 Error as ``codermind chart`` measures it: relative MSE of the linear sub-sample means against
 a converged reference (``codermind_harness.metrics.rel_mse``). The original program's error
@@ -16,7 +18,7 @@ and as issue 14 compares two cores against the original's one) and CPU seconds o
 process (all Dr.Jit threads, against the original's one core; less sensitive to a shared
 machine) are printed, with the load. The sampler with the smallest wall time is the
 winner (``codermind convert`` writes it: codermind.tutorial.xml.RANDOM_SAMPLER).
-Counts are the samplers' own (codermind.render.sampler_plan: passes of counts each
+Counts are the samplers' own (codermind.passes.sampler_plan: passes of counts each
 sampler keeps, so a pass renders what it counts).
 
 ``--pairs`` measures the same without converged references (so that the whole image fits in
@@ -27,6 +29,10 @@ holds for stratified samplers too (two independent randomisations). N, the norma
 clean render at the largest ``--spp`` (its noise moves the denominator by a fraction of a
 percent). The port's error is fitted as a / C (a variance has no floor) and evaluated at
 C = 256; the original's error against the converged tutorial image is the same quantity.
+
+A timing: run it on a quiet machine. ``--write-results`` writes the table to
+docs/results/integrator.md (section ``equal-error``, or ``equal-error-w8`` with
+``--vector-width 8``).
 """
 
 from __future__ import annotations
@@ -42,8 +48,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-SCENE = ROOT.parent / "shared" / "tutorial" / "page4" / "derived_scene_complexity256.txt"
+import _results
+
+ROOT = _results.ROOT
+SCENE = _results.TUTORIAL / "page4" / "derived_scene_complexity256.txt"
 ORIGINAL_SECONDS = 145.7            # Complexity 256, 640x480, one core (issue 14)
 SAMPLERS = ("independent", "stratified", "multijitter", "ldsampler", "orthogonal")
 
@@ -70,7 +78,7 @@ def reach(times, errs, target: float) -> float:
     return t * e / target
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scene", type=Path, default=SCENE)
     p.add_argument("--rect", default="368,120,464,192")
@@ -83,15 +91,15 @@ def main() -> int:
                         "stratifying sampler's pass is one stratified set)")
     p.add_argument("--vector-width", type=int, choices=(0, 8), default=0,
                    help="Dr.Jit's LLVM vector width: 0 the host's, 8 without AVX-512 "
-                        "(bench_pass_plan.llvm_width)")
+                        "(bench_page4_c256.llvm_width)")
     p.add_argument("--pairs", action="store_true",
                    help="variance from seed pairs instead of converged references")
-    args = p.parse_args()
+    _results.add_argument(p, "integrator.md")
+    args = p.parse_args(argv)
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    from bench_pass_plan import llvm_width
+    from bench_page4_c256 import llvm_width
     width = llvm_width(dr, args.vector_width)
     import codermind  # noqa: F401
     from codermind.tutorial.render import render_linear
@@ -175,6 +183,7 @@ def sweep(args, scene_with, error, target: float, original: float) -> int:
     and in CPU seconds (against its one core), and the winner by wall time."""
     spps = [int(v) for v in args.spp.split(",")]
     best = None
+    rows = []
     print(f"{'sampler':12s} " + " ".join(f"{'spp ~' + str(s):>27s}" for s in spps)
           + f" {'wall s to target':>17s} {'vs original':>11s} {'CPU s to target':>16s}"
           f" {'vs original':>11s}")
@@ -188,11 +197,26 @@ def sweep(args, scene_with, error, target: float, original: float) -> int:
                          for n, e, c in zip(ns, errs, costs))
         print(f"{sampler:12s} {cells} {wall:17.3f} {original / wall:10.1f}x {cpu_s:16.3f} "
               f"{original / cpu_s:10.1f}x", flush=True)
+        rows.append([sampler] + [f"{n}: {e:.3g} in {c.wall:.2f} s" for n, e, c
+                                 in zip(ns, errs, costs)]
+                    + [f"{wall:.2f}", f"{original / wall:.1f}x", f"{cpu_s:.2f}",
+                       f"{original / cpu_s:.1f}x"])
         if best is None or wall < best[1]:
             best = (sampler, wall, cpu_s)
     print(f"winner: {best[0]} ({original / best[1]:.1f}x the original at equal error in wall "
           f"seconds, {original / best[2]:.1f}x in CPU seconds against its one core); "
           f"load average {'%.2f %.2f %.2f' % os.getloadavg()}")
+    if args.write_results:
+        body = (f"Region {args.rect} of the tutorial's page 4 "
+                f"({'variance from seed pairs' if args.pairs else 'against converged references'}); "
+                f"the original's error: the strict port fitted at Complexity {args.port_c} and "
+                f"taken at 256 ({target:.4g}); the original's time for the region: "
+                f"{original:.2f} s (its {ORIGINAL_SECONDS} s x the region's share of the image).\n\n"
+                + _results.table(["sampler"] + [f"spp ~{s}: rel MSE in wall s" for s in spps]
+                                 + ["wall s to the original's error", "speed-up (wall)",
+                                    "CPU s to it", "speed-up (CPU)"], rows))
+        _results.write(args.write_results, body, section="equal-error" if args.vector_width == 0
+                       else f"equal-error-w{args.vector_width}")
     return 0
 
 

@@ -3,20 +3,25 @@ spheres, pairs, the page-4 blob and random blobs (2-6 sources, centres within ab
 of each other, max_error R/5000 to R/100, both fields) it builds the mesh and prints the
 real triangle count over the estimate, the time per triangle and the peak memory per
 triangle (numpy's allocations, by tracemalloc), then their ranges per field. The constants
-of ``codermind/blobmesh/cost.py`` come from this (run by hand; minutes, not a test).
+of ``codermind/blobmesh/cost.py`` come from this (minutes, not a test); the times are
+timings (a quiet machine). ``--write-results`` writes the ranges per field to
+docs/results/blob.md (section ``cost``).
 
-    python benchmarks/calibrate_blob_cost.py [--seed 1] [--count 12]
+    python benchmarks/calibrate_blob_cost.py [--seed 1] [--count 12] [--write-results [PATH]]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import tracemalloc
 
 import numpy as np
 
 from codermind.blobmesh import build_blob_mesh, estimate_cost
+
+import _results
 
 PAGE4 = [(160, 290, 320), (400, 290, 480), (250, 140, 400)]
 
@@ -38,11 +43,13 @@ def cases(seed: int, count: int):
             yield f"random {k}: {n} sources, R/{r / e:.0f}", c, r, field, e
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--count", type=int, default=12)
-    args = ap.parse_args()
+    _results.add_argument(ap, "blob.md")
+    args = ap.parse_args(argv)
+    summary = []
     rows = {"tutorial": [], "exact": []}
     for name, c, r, field, e in cases(args.seed, args.count):
         t0 = time.perf_counter()
@@ -64,7 +71,15 @@ def main() -> None:
               f"(median {np.median(a[:, 0]):.3f}); us per triangle median "
               f"{1e6 * np.median(a[:, 1]):.1f}; bytes per triangle median "
               f"{np.median(a[:, 2]):.0f}, max {a[:, 2].max():.0f}")
+        summary.append([field, len(a), f"{a[:, 0].min():.3f}-{a[:, 0].max():.3f}",
+                        f"{np.median(a[:, 0]):.3f}", f"{1e6 * np.median(a[:, 1]):.1f}",
+                        f"{np.median(a[:, 2]):.0f} / {a[:, 2].max():.0f}"])
+    if args.write_results:
+        _results.write(args.write_results, _results.table(
+            ["field", "meshes", "real / estimated triangles", "median", "us per triangle, median",
+             "bytes per triangle, median / max"], summary), section="cost")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

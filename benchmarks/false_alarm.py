@@ -1,5 +1,5 @@
 """The false-alarm rate of `codermind compare` on correct plugins, and compare at every sample
-count from 16 to 1024 (issue 16).
+count from 16 to 1024.
 
 Runs compare exactly as a user gets it (``compare_scene`` with the CLI's default thresholds,
 exposure seeds and noise floor; the CLI's ``--spp``, ``--seed``, ``--rect``, ``--stride``) on
@@ -16,23 +16,26 @@ Clopper-Pearson 95 % interval.
   floor SEED+1, so no two runs share a random number) on a 24 x 18 crop at a random place, or
   (one in four) a 48 x 36 rectangle at stride 2. Runs whose grid holds >= 16 sub-samples of
   page 4's glass blob (lens-centre rays, ``sides.object_labels``) are counted apart: the known
-  pooled-object failure on the blob (docs/results/harness-power.md).
+  pooled-object failure on the blob.
 * ``--spp-sweep``: every distinct scene at spp 16, 64, 256 and 1024, seed 0: page 4 (bundled
   and the tutorial's) on the blob crop of harness-power.md and on a crop of the marble sphere,
   pages 1-3 on one 32 x 24 crop.
 
-    python benchmarks/false_alarm.py --out docs/results/false-alarm.md [--runs N] [--cluster ADDRESS]
-    python benchmarks/false_alarm.py --spp-sweep --out sweep.md [--sweep-seeds N]
+    python benchmarks/false_alarm.py [--runs N] [--cluster ADDRESS] [--write-results [PATH]]
+    python benchmarks/false_alarm.py --spp-sweep [--sweep-seeds N] [--write-results [PATH]]
+    python benchmarks/false_alarm.py --merge PART.json ... [--write-results [PATH]]
 
 Writes a Markdown table (``--out``) and every run's record as JSON beside it (``.json``),
-rewritten after each run, so that an interrupted benchmark keeps what it measured.
+rewritten after each run, so that an interrupted benchmark keeps what it measured (parts of
+one benchmark, ``--first K --limit N``, are joined by ``--merge``). ``--write-results`` writes
+the summary and the table to docs/results/false-alarm.md (section ``runs``, or ``sweep`` with
+``--spp-sweep``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import tempfile
@@ -41,8 +44,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "plugins"), str(ROOT / "reference")]
 TUTORIAL = Path(os.environ.get("CODERMIND_TUTORIAL", ROOT.parent / "shared" / "tutorial"))
+PAGE = "false-alarm.md"
 
 W, H = 640, 480                 #: every tutorial scene's image size
 CROP = (24, 18)                 #: crop size in pixels
@@ -94,7 +97,7 @@ def false_alarm_runs(n_random: int) -> list[dict]:
     return out
 
 
-#: --spp-sweep grids: page 4's glass blob (the crop of docs/results/harness-power.md) and
+#: --spp-sweep grids: page 4's glass blob (the crop of benchmarks/harness_power.py) and
 #: the marble sphere with the floor; the scenes without randomness on one 32 x 24 crop.
 SWEEP_RANDOM = ((300, 250, 332, 274), (400, 140, 432, 164))
 SWEEP_DET = (200, 200, 232, 224)
@@ -226,9 +229,7 @@ def markdown(rows: list[dict], argv: str, seconds: float) -> str:
             f"{r['pass_rate']:.5f} | {'-' if r['max_abs_z'] is None else format(r['max_abs_z'], '.3g')} | "
             f"{pooled} | {r['flip']:.4f} / {r['flip_limit']:.4f} | "
             f"{'-' if r['exposure_p'] is None else format(r['exposure_p'], '.2g')} |")
-    lines = [f"Command: `python benchmarks/false_alarm.py {argv}`; "
-             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {seconds / 60:.0f} min.", ""]
-    lines += pivot(rows) or ["| runs | false alarms |", "| --- | --- |"] + [
+    lines = pivot(rows) or ["| runs | false alarms |", "| --- | --- |"] + [
         f"| {a} | {b} |" for a, b in summary(rows)]
     fails = [r for r in rows if not r["passed"]]
     if fails:
@@ -275,9 +276,10 @@ def pivot(rows: list[dict]) -> list[str]:
     return out
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", default="false-alarm.md")
+    ap.add_argument("--out", default="/tmp/false-alarm.md",
+                    help="the table and, beside it, every run's record (.json)")
     ap.add_argument("--runs", type=int, default=96, metavar="N",
                     help="page-4 (random) runs (default 96; the scenes without randomness add "
                          "three grids each)")
@@ -295,7 +297,9 @@ def main() -> int:
     ap.add_argument("--cluster", metavar="ADDRESS",
                     help="tcp://HOST:PORT or local:N: each run's port tiles and Mitsuba renders "
                          "run as Dask tasks (docs/cluster.md), up to 8 runs in flight together")
-    args = ap.parse_args()
+    ap.add_argument("--write-results", nargs="?", const=str(ROOT / "docs" / "results" / PAGE),
+                    metavar="PATH", help=f"write docs/results/{PAGE} (or PATH, a copy)")
+    args = ap.parse_args(argv)
     if args.merge:
         rows = {r["run"]: r for f in args.merge for r in json.loads(Path(f).read_text())}
         rows = [rows[k] for k in sorted(rows)]
@@ -304,6 +308,7 @@ def main() -> int:
         out.write_text(markdown(rows, " ".join(sys.argv[1:]), sum(r["seconds"] for r in rows)))
         for a, b in summary(rows):
             print(f"{a}: {b}")
+        results(args, rows, sum(r["seconds"] for r in rows))
         return 0
     from codermind_harness.cluster import open_runner
     with open_runner(args.cluster, progress=False) as runner:
@@ -346,7 +351,17 @@ def run(args: argparse.Namespace, runner) -> int:
                 done(f.result())
     for a, b in summary(rows):
         print(f"{a}: {b}")
+    results(args, rows, time.perf_counter() - t0)
     return 0
+
+
+def results(args: argparse.Namespace, rows: list[dict], seconds: float) -> None:
+    """The section of docs/results/false-alarm.md (``--write-results``)."""
+    if not args.write_results:
+        return
+    import _results            # benchmarks/_results.py, beside this script
+    _results.write(args.write_results, markdown(rows, "", seconds),
+                   section="sweep" if args.spp_sweep else "runs", seconds=seconds)
 
 
 if __name__ == "__main__":

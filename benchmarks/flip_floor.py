@@ -4,9 +4,11 @@ For each scene, grid and sample count: the port with seeds 0..P (P + 1 renders) 
 noise floor F0_s = FLIP(port_s, port_s+1) for P seed pairs; the Mitsuba side with seeds
 0..M-1 gives F_s = FLIP(port_s, mitsuba_s), which compare judges against F0_s. All at one
 exposure (the port's auto exposure for seed 0), as compare does. Prints, per row, the mean
-and relative sd of F0 and the ratios F_s / F0_s, and writes the rows as JSON.
+and relative sd of F0 and the ratios F_s / F0_s, and writes the rows as JSON (``--out``);
+``--write-results`` writes the table to docs/results/compare.md (section ``flip-floor``).
 
-    python benchmarks/flip_floor.py [--out FILE] [--pairs P] [--mitsuba M]
+    python benchmarks/flip_floor.py [--out FILE] [--pairs P] [--mitsuba M] [--only K ...]
+                                    [--write-results [PATH]]
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "plugins"), str(ROOT / "reference")]
+import _results
+
+ROOT = _results.ROOT
 
 CASES = [   # (scene, rect x0,y0,x1,y1 (y up), spp)
     ("scenes/page4.txt", (272, 220, 352, 280), 16),
@@ -31,24 +34,29 @@ CASES = [   # (scene, rect x0,y0,x1,y1 (y up), spp)
 ]
 
 
-def main() -> int:
-    import os
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out", default="flip_floor.json")
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="/tmp/flip_floor.json")
     ap.add_argument("--pairs", type=int, default=6)
     ap.add_argument("--mitsuba", type=int, default=3)
-    args = ap.parse_args()
+    ap.add_argument("--only", type=int, nargs="+", metavar="K",
+                    help="only these rows (0-based) of the case list")
+    _results.add_argument(ap, "compare.md")
+    args = ap.parse_args(argv)
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401
     from codermind_harness import metrics, sides
     from codermind_harness.compare import strip_free_rows
-    tutorial = Path(os.environ.get("CODERMIND_TUTORIAL", ROOT.parent / "shared" / "tutorial"))
+    tutorial = _results.TUTORIAL
     rows = []
     tmp = Path(args.out).resolve().parent / "flip_floor_xml"
     tmp.mkdir(parents=True, exist_ok=True)
-    for name, rect, spp in CASES:
-        path = Path(name.replace("TUTORIAL", str(tutorial)))
+    for k, (name, rect, spp) in enumerate(CASES):
+        if args.only is not None and k not in args.only:
+            continue
+        path = ROOT / name if name.startswith("scenes/") else \
+            Path(name.replace("TUTORIAL", str(tutorial)))
         if not path.is_file():
             print(f"skip {path} (not found)")
             continue
@@ -76,6 +84,15 @@ def main() -> int:
               f"{row['floor_rel_sd']:.4f}; F/F0 {', '.join(f'{r:.4f}' for r in row['ratio'])} "
               f"({row['seconds']:.0f} s)", flush=True)
     Path(args.out).write_text(json.dumps(rows, indent=2) + "\n")
+    if args.write_results:
+        table = _results.table(
+            ["scene", "crop (x0, y0, x1, y1; y up)", "pixels", "spp",
+             f"floor F0 (mean of {args.pairs})", "rel sd of F0",
+             f"F / F0, seeds 0-{args.mitsuba - 1}", "s"],
+            [[f"`{r['scene'].replace('TUTORIAL/', 'tutorial/')}`", ",".join(map(str, r["rect"])),
+              r["pixels"], r["spp"], f"{r['floor_mean']:.5f}", f"{r['floor_rel_sd']:.4f}",
+              ", ".join(f"{x:.4f}" for x in r["ratio"]), f"{r['seconds']:.0f}"] for r in rows])
+        _results.write(args.write_results, table, section="flip-floor")
     return 0
 
 

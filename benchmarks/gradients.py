@@ -2,37 +2,21 @@
 set of tests/support/gradient_cases.py, AD against finite differences, with more samples than CI
 (tests/plugins/test_gradient_table.py runs the default-options rows), and the reverse-mode check.
 
-    python benchmarks/gradients.py [--spp 64] [--seeds 4] [--only TEXT] [--write-results]
+    python benchmarks/gradients.py [--spp 64] [--seeds 4] [--only TEXT] [--write-results [PATH]]
 
-Prints one line per row; ``--write-results`` writes docs/results/gradients.md (the table,
-the command, the date and the machine). ``--only`` keeps the rows whose id contains TEXT.
+Prints one line per row; ``--write-results`` writes the table to docs/results/gradients.md.
+``--only`` keeps the rows whose id contains TEXT.
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import subprocess
 import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-from support import gradient_cases as cases  # noqa: E402
+import _results
 
-OUT = ROOT / "docs" / "results" / "gradients.md"
-
-
-def machine() -> str:
-    """The CPU's model name (lscpu) and its core count."""
-    try:
-        text = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-    except OSError:
-        return "unknown (no lscpu)"
-    fields = dict(line.split(":", 1) for line in text.splitlines() if ":" in line)
-    model = fields.get("Model name", "unknown").strip()
-    return f"{model}, {fields.get('CPU(s)', '?').strip()} CPUs"
+cases = _results.tests_module("gradient_cases")
 
 
 def run(mi, rows, spp: int, seeds: int) -> list[tuple]:
@@ -80,7 +64,7 @@ def _g(x: float) -> str:
     return f"{x:.5g}"
 
 
-def table(measured, setups_run, spp: int, seeds: int, command: str, seconds: float) -> str:
+def table(measured, setups_run, spp: int, seeds: int) -> str:
     """The results page; ``setups_run`` the setups the rows came from (with those that
     have none)."""
     import drjit as dr
@@ -93,26 +77,8 @@ def table(measured, setups_run, spp: int, seeds: int, command: str, seconds: flo
     setups = {r.setup.id for r, _, _, _ in measured}
     idle = {s.plugin for s in setups_run} - {o for o, _ in params}
     lines = [
-        "# Gradients: AD against finite differences",
-        "",
-        "Every differentiable parameter of every plugin, under each plugin's default options "
-        "and its other options: the derivative of the mean pixel along a fixed random "
-        "direction by Mitsuba's AD integrators (`prb`; `prb_projective` for parameters "
-        "flagged `Discontinuous`) against central differences of primal renders at the "
-        "same seeds. The rows are found by `mi.traverse`; the scenes, the framing that makes "
-        "each derivative well posed and the tolerance (the paired differences' own noise "
-        "over pixels and seeds, the change of the difference between steps h and 2h, and "
-        "float32 rounding) are in "
-        "[tests/support/gradient_cases.py](../../tests/support/gradient_cases.py). CI runs the default "
-        "options' rows and a few others with fewer samples "
-        "([tests/plugins/test_gradient_table.py](../../tests/plugins/test_gradient_table.py)). Evidence of "
-        "the plugins' AD wiring, not of the renderer.",
-        "",
-        f"Recorded {datetime.date.today().isoformat()} on {machine()}, Mitsuba "
-        f"{mi.__version__}, Dr.Jit {dr.__version__}, {spp} spp x {seeds} seeds of "
-        f"{cases.SIZE}x{cases.SIZE} pixels per render, in {seconds / 60:.0f} min:",
-        "",
-        f"    {command}",
+        f"Mitsuba {mi.__version__}, Dr.Jit {dr.__version__}, {spp} spp x {seeds} seeds of "
+        f"{cases.SIZE}x{cases.SIZE} pixels per render.",
         "",
         f"**{len(measured)} rows ({len(params)} differentiable parameters of "
         f"{len({o for o, _ in params})} plugins, in {len(setups)} option sets): {passed} "
@@ -178,14 +144,13 @@ def table(measured, setups_run, spp: int, seeds: int, command: str, seconds: flo
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--only", default="", help="keep the rows whose id contains this")
-    ap.add_argument("--write-results", action="store_true",
-                    help=f"write {OUT.relative_to(ROOT)}")
-    args = ap.parse_args()
+    _results.add_argument(ap, "gradients.md")
+    args = ap.parse_args(argv)
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
     import codermind  # noqa: F401  (registers the plugins)
@@ -197,13 +162,10 @@ def main() -> None:
     rows = [row for row in cases.rows(mi, setups) if args.only in row.id]
     measured = run(mi, rows, args.spp, args.seeds)
     if args.write_results:
-        command = "python benchmarks/gradients.py" + \
-            (f" --spp {args.spp}" if args.spp != 64 else "") + \
-            (f" --seeds {args.seeds}" if args.seeds != 4 else "") + " --write-results"
-        OUT.write_text(table(measured, setups, args.spp, args.seeds, command,
-                             time.time() - start))
-        print(f"wrote {OUT.relative_to(ROOT)}")
+        _results.write(args.write_results, table(measured, setups, args.spp, args.seeds),
+                       seconds=time.time() - start)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

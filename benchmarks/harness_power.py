@@ -1,10 +1,10 @@
 """The power of `codermind compare`: known errors injected into the Mitsuba side (an edited
 copy of the converted XML, or an XML default), each compared with the port at compare's
 default settings on a small grid; which are caught, by which test, and the smallest size
-caught. Writes a Markdown table (--out) and the records as JSON beside it.
+caught. Writes a Markdown table (--out) and the records as JSON beside it; --write-results
+writes the table to docs/results/harness-power.md.
 
-    python benchmarks/harness_power.py [--out docs/results/harness-power.md] [--only NAME ...]
-                                       [--cluster ADDRESS]
+    python benchmarks/harness_power.py [--only NAME ...] [--cluster ADDRESS] [--write-results [PATH]]
 
 With --cluster each case is one Dask task: its scene text, edited XML and the files they name
 (the cube-map faces, sent once per page) travel with it; the client writes the table.
@@ -20,8 +20,9 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "plugins"), str(ROOT / "reference")]
+import _results
+
+ROOT = _results.ROOT
 SCENES = ROOT / "scenes"
 
 #: Grids: page 1 every 4th pixel (deterministic); page 4: the marble sphere and the floor
@@ -101,15 +102,17 @@ def cases():
     return out
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--out", default="harness-power.md")
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default="/tmp/harness-power.md",
+                    help="the table and, beside it, every case's record (.json)")
     ap.add_argument("--only", nargs="*", help="error names (substrings) to run")
     ap.add_argument("--cluster", metavar="ADDRESS",
                     help="tcp://HOST:PORT or local:N: one injected-error case per Dask task "
                          "(docs/cluster.md); the scene, the edited XML and the cube-map faces "
                          "travel with the tasks, the client writes the table")
-    args = ap.parse_args()
+    _results.add_argument(ap, "harness-power.md")
+    args = ap.parse_args(argv)
     from codermind_harness.cluster import open_runner
     with open_runner(args.cluster) as runner:
         return run(args, runner)
@@ -193,6 +196,8 @@ def run(args: argparse.Namespace, runner) -> int:
     out = Path(args.out)
     write(out.with_suffix(".json"), json.dumps(done, indent=2) + "\n")
     write(out, markdown(done, " ".join(sys.argv[1:])))
+    if args.write_results:
+        _results.write(args.write_results, markdown(done, ""))
     return 0
 
 

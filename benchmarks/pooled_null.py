@@ -11,7 +11,9 @@ same for two independent sides (the port against itself), and the pooled differe
 sum(a - b) / sqrt(sum(var_a + var_b)) over all sub-samples, whose numerator has mean 0 for
 any two unbiased sides.
 
-    python benchmarks/pooled_null.py [--n 200000]
+    python benchmarks/pooled_null.py [--n 200000] [--write-results [PATH]]
+
+``--write-results`` writes the table to docs/results/compare.md (section ``pooled-null``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+
+import _results
 
 PASSES = 16
 CLIP = 4.0          #: metrics.Z_CLIP
@@ -42,15 +46,18 @@ def clipped_z(a, va, b, vb):
     return np.clip((a - b)[ok] / sd[ok], -CLIP, CLIP)
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=200000, help="sub-samples per setting")
     ap.add_argument("--seed", type=int, default=1)
-    args = ap.parse_args()
+    _results.add_argument(ap, "compare.md")
+    args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
-    print("| spp | p | mean z, stratified vs iid | Stouffer Z over 3000 | mean z, iid vs iid "
+    lines = []
+    emit = lines.append
+    emit("| spp | p | mean z, stratified vs iid | Stouffer Z over 3000 | mean z, iid vs iid "
           "| Stouffer Z over 3000 | pooled difference Z, stratified vs iid, all sub-samples |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    emit("| --- | --- | --- | --- | --- | --- | --- |")
     for spp in (16, 64, 256, 1024):
         for p in (0.02, 0.1, 0.3):
             n = args.n if spp <= 256 else args.n // 4
@@ -59,8 +66,11 @@ def main() -> int:
             b2, vb2 = iid(rng, n, spp, p)
             z, z2 = clipped_z(a, va, b, vb), clipped_z(b2, vb2, b, vb)
             zd = (a - b).sum() / np.sqrt((va + vb).sum())
-            print(f"| {spp} | {p} | {z.mean():+.4f} | {z.mean() * np.sqrt(3000):+.2f} | "
-                  f"{z2.mean():+.4f} | {z2.mean() * np.sqrt(3000):+.2f} | {zd:+.2f} |", flush=True)
+            emit(f"| {spp} | {p} | {z.mean():+.4f} | {z.mean() * np.sqrt(3000):+.2f} | "
+                 f"{z2.mean():+.4f} | {z2.mean() * np.sqrt(3000):+.2f} | {zd:+.2f} |")
+            print(lines[-1], flush=True)
+    if args.write_results:
+        _results.write(args.write_results, "\n".join(lines) + "\n", section="pooled-null")
     return 0
 
 

@@ -17,24 +17,20 @@ restarted) for
 - ``str(scene)``, and one misspelled parameter of one of our plugins (must be refused in one
   line naming the plugin and the misspelling).
 
-    python benchmarks/random_scenes.py --scenes 2000 --write-results [--seed S] [--jobs J]
+    python benchmarks/random_scenes.py --scenes 2000 --write-results [PATH] [--seed S] [--jobs J]
 
-writes docs/results/random-scenes.md (counts, command, date, machine) and every scene's
-record beside it as JSON (``--json``, default /tmp/random-scenes.json), rewritten as it
-goes. The scenes are hypothesis examples (generation only, no shrinking) from seed S.
+writes the counts to docs/results/random-scenes.md and every scene's record as JSON
+(``--json``, default /tmp/random-scenes.json), rewritten as it goes. The scenes are hypothesis examples (generation only, no shrinking) from seed S.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
-import datetime
 import json
 import os
-import platform
 import random
 import re
-import subprocess
 import sys
 import tempfile
 import threading
@@ -42,10 +38,10 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+import _results
 
-from support import random_scenes as rs  # noqa: E402
+ROOT = _results.ROOT
+rs = _results.tests_module("random_scenes")
 
 K, K_SPP, ALPHA = 8, 16, 1e-3
 EXTRA = ("prb", "direct", "tutorialpath_strict")
@@ -175,31 +171,10 @@ def summarize(records: list[dict]) -> dict:
             "types": collections.Counter(t for r in records for t in r["types"])}
 
 
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        model = re.search(r"Model name:\s*(.+)", out).group(1).strip()
-    except (OSError, AttributeError):
-        model = platform.processor() or "unknown CPU"
-    return f"{model}, {os.cpu_count()} cores"
-
-
-def page(s: dict, records: list[dict], command: str, wall: float) -> str:
+def page(s: dict, records: list[dict]) -> str:
     n = len(records)
     tests, failed = s["tests"], len(s["failed"])
     lines = [
-        "# Random scenes: the long run",
-        "",
-        "Scenes nobody tuned anything to, drawn by `tests/support/random_scenes.py` (any world size "
-        "from 0.01 to 1000 units, built-in shapes, BSDFs and lights mixed with every plugin "
-        "of this package; see its docstring), each rendered as "
-        "`benchmarks/random_scenes.py` describes. The same properties run in CI on a few "
-        "scenes (`tests/plugins/test_random_scenes.py`, `tests/plugins/test_random_scene_parameters.py`).",
-        "",
-        f"- Command: `{command}`",
-        f"- Date: {datetime.date.today().isoformat()}; machine: {machine()}; "
-        f"wall time {wall / 60:.1f} min",
-        "",
         "## Counts",
         "",
         "| property | checked | failing |",
@@ -263,16 +238,14 @@ def main(argv=None) -> int:
     parser.add_argument("--extra-every", type=int, default=2)
     parser.add_argument("--scalar-every", type=int, default=5)
     parser.add_argument("--json", default="/tmp/random-scenes.json")
-    parser.add_argument("--write-results", action="store_true",
-                        help="write docs/results/random-scenes.md")
+    _results.add_argument(parser, "random-scenes.md")
     parser.add_argument("--from-json", action="store_true",
                         help="only write the page from the records in --json, of a run that "
                              "took --wall seconds with --command")
     parser.add_argument("--wall", type=float, default=0.0)
     parser.add_argument("--command", default="")
     args = parser.parse_args(argv)
-    command = "python benchmarks/random_scenes.py " + " ".join(
-        a for a in (argv if argv is not None else sys.argv[1:]))
+    command = _results.command()
     if args.from_json:
         records = json.loads(Path(args.json).read_text())
         return write(records, args.command or command, args.wall, args.write_results)
@@ -312,11 +285,11 @@ def main(argv=None) -> int:
     return write(records, command, wall, args.write_results)
 
 
-def write(records: list[dict], command: str, wall: float, to_docs: bool) -> int:
-    text = page(summarize(records), records, command, wall)
+def write(records: list[dict], command: str, wall: float, to: str | None) -> int:
+    text = page(summarize(records), records)
     print(text)
-    if to_docs:
-        (ROOT / "docs" / "results" / "random-scenes.md").write_text(text, encoding="utf-8")
+    if to:
+        _results.write(to, text, cmd=command, seconds=wall)
     return 0
 
 

@@ -172,3 +172,130 @@ def test_link_check_catches_broken_files_and_anchors(tmp_path):
 
 def test_readme_is_short():
     assert len(README.read_text(encoding="utf-8").splitlines()) <= 200
+
+
+# --- results pages and the benchmarks that write them ---------------------------------------
+
+RESULTS = ROOT / "docs" / "results"
+BENCHMARKS = ROOT / "benchmarks"
+_SECTION = re.compile(r"<!-- begin (\S+) (\S+) -->\n(.*?)<!-- end \1 \2 -->", re.S)
+_DATE = re.compile(r"^Date: \d{4}-\d{2}-\d{2}; machine: \S.*$", re.M)
+
+
+def results_pages() -> list[Path]:
+    return sorted(p for p in RESULTS.glob("*.md") if p.name != "README.md")
+
+
+def section_problems(page: Path, benchmarks: Path = BENCHMARKS) -> list[str]:
+    """What is wrong with a results page's generated sections: none, a section whose script
+    is missing or does not write this page (``--write-results`` and the page's name in its
+    source, the section's name too), or one that does not open with the command (that
+    script with ``--write-results``) and a date-and-machine line."""
+    text = page.read_text(encoding="utf-8")
+    sections = _SECTION.findall(text)
+    if not sections:
+        return [f"{page.name}: no generated section"]
+    bad = []
+    for script, name, body in sections:
+        where = f"{page.name} [{script} {name}]"
+        source = benchmarks / script
+        if not source.is_file():
+            bad.append(f"{where}: no benchmarks/{script}")
+            continue
+        code = source.read_text(encoding="utf-8")
+        if "--write-results" not in code and "_results.add_argument" not in code:
+            bad.append(f"{where}: {script} has no --write-results")
+        if page.name not in code:
+            bad.append(f"{where}: {script} does not name {page.name}")
+        base = re.sub(r"-[a-z]\d+$", "", name)
+        if name != "results" and f'"{base}' not in code:
+            bad.append(f"{where}: {script} writes no section {name!r}")
+        lines = body.strip().splitlines()
+        command = re.fullmatch(rf"Command: `python benchmarks/{re.escape(script)}( [^`]*)?`",
+                               lines[0] if lines else "")
+        if not command or "--write-results" not in lines[0]:
+            bad.append(f"{where}: the first line is not its command with --write-results")
+        if not _DATE.search(body):
+            bad.append(f"{where}: no 'Date: YYYY-MM-DD; machine: ...' line")
+    return bad
+
+
+@pytest.mark.parametrize("page", results_pages(), ids=lambda p: p.name)
+def test_results_page_is_written_by_a_benchmark(page):
+    assert section_problems(page) == []
+
+
+def test_section_check_catches_missing_scripts_commands_and_dates(tmp_path):
+    bench = tmp_path / "benchmarks"
+    bench.mkdir()
+    (bench / "good.py").write_text('PAGE = "p.md"  # --write-results; section "extra"\n')
+    (bench / "other.py").write_text("# writes nothing\n")
+    page = tmp_path / "p.md"
+    page.write_text("# P\n\nText.\n")
+    assert section_problems(page, bench) == ["p.md: no generated section"]
+    ok = ("Command: `python benchmarks/good.py --write-results`\n\n"
+          "Date: 2026-01-02; machine: some CPU, 2 cores; commit abc\n\n| a |\n| --- |\n")
+    page.write_text("# P\n\n<!-- begin good.py results -->\n" + ok + "<!-- end good.py results -->\n"
+                    "<!-- begin good.py extra -->\n" + ok + "<!-- end good.py extra -->\n")
+    assert section_problems(page, bench) == []
+    page.write_text("<!-- begin gone.py results -->\n" + ok + "<!-- end gone.py results -->\n"
+                    "<!-- begin other.py results -->\n" + ok.replace("good", "other")
+                    + "<!-- end other.py results -->\n"
+                    "<!-- begin good.py nothing -->\nCommand: `python benchmarks/good.py`\n"
+                    "Date: yesterday\n<!-- end good.py nothing -->\n")
+    assert section_problems(page, bench) == [
+        "p.md [gone.py results]: no benchmarks/gone.py",
+        "p.md [other.py results]: other.py has no --write-results",
+        "p.md [other.py results]: other.py does not name p.md",
+        "p.md [good.py nothing]: good.py writes no section 'nothing'",
+        "p.md [good.py nothing]: the first line is not its command with --write-results",
+        "p.md [good.py nothing]: no 'Date: YYYY-MM-DD; machine: ...' line"]
+
+
+def test_results_index_and_readme_link_every_page():
+    index = (RESULTS / "README.md").read_text(encoding="utf-8")
+    readme = README.read_text(encoding="utf-8")
+    for page in results_pages():
+        assert f"]({page.name})" in index, f"docs/results/README.md does not index {page.name}"
+        assert f"](docs/results/{page.name})" in readme, f"README.md does not quote {page.name}"
+    for script in re.findall(r"python benchmarks/(\w+\.py)", index):
+        assert (BENCHMARKS / script).is_file(), script
+
+
+def benchmark_scripts() -> list[Path]:
+    return sorted(p for p in BENCHMARKS.glob("*.py") if not p.name.startswith("_"))
+
+
+@pytest.mark.parametrize("script", benchmark_scripts(), ids=lambda p: p.name)
+def test_benchmark_has_main_argparse_and_a_page(script):
+    code = script.read_text(encoding="utf-8")
+    assert "def main(" in code and "argparse" in code and 'if __name__ == "__main__":' in code
+    assert "sys.path" not in code, "the package is installed editable: no sys.path edits"
+    pages = [p.name for p in results_pages()
+             if f"<!-- begin {script.name} " in p.read_text(encoding="utf-8")]
+    assert pages, f"{script.name} feeds no page of docs/results/ (remove it, or give it one)"
+    listed = (BENCHMARKS / "README.md").read_text(encoding="utf-8")
+    assert f"`{script.name}`" in listed, f"benchmarks/README.md does not list {script.name}"
+
+
+def _results_module():
+    spec = importlib.util.spec_from_file_location("_results", BENCHMARKS / "_results.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_results_writer_replaces_only_its_section(tmp_path):
+    r = _results_module()
+    page = tmp_path / "page.md"
+    page.write_text("# Page\n\nIntro, kept.\n")
+    r.write(page, "| a |\n| --- |\n| 1 |\n", script="x.py", section="s", cmd="python benchmarks/x.py --write-results", seconds=3)
+    r.write(page, "other\n", script="y.py", cmd="python benchmarks/y.py --write-results", seconds=3)
+    r.write(page, "| a |\n| --- |\n| 2 |\n", script="x.py", section="s", cmd="python benchmarks/x.py --write-results", seconds=3)
+    text = page.read_text()
+    assert text.startswith("# Page\n\nIntro, kept.\n\n<!-- begin x.py s -->\nCommand: "
+                           "`python benchmarks/x.py --write-results`\n\nDate: ")
+    assert "| 2 |" in text and "| 1 |" not in text and text.count("<!-- begin") == 2
+    assert _DATE.search(text) and "<!-- end y.py results -->" in text
+    assert r.command([str(BENCHMARKS / "x.py"), "--runs", "3", "--write-results", "/tmp/q.md"]) \
+        == "python benchmarks/x.py --runs 3 --write-results"

@@ -22,12 +22,7 @@ SKIP_DIRS = {".git", ".venv", "venv", "__pycache__", ".pytest_cache", ".hypothes
 #: Files that may still cite the specification, until their rewrite lands (entries ending in
 #: "/" are folders). docs/reference/integrator-tutorialpath.md is generated from
 #: tutorialpath.py's docstring; docs/figures/stability.* are written by the harness's sweeps.
-SPEC_CITATIONS_ALLOWED = {
-    "docs/results/",
-    "benchmarks/",
-    "docs/figures/stability.json",
-    "docs/figures/stability.md",
-}
+SPEC_CITATIONS_ALLOWED: set[str] = set()
 
 REF = r"F\d+(?:\.\d+)?"
 CITATION = re.compile(rf"facts\.md\s+({REF}(?:(?:\s*,\s*|\s+and\s+|-){REF})*)")

@@ -59,7 +59,7 @@ DEFAULT_TARGET = 0.5
 #: further along, at more grazing incidence, where the Fresnel R rises (+0.36 % of R x cube
 #: map on the blob's edge). A sixteenth (0.0216) brings both below the noise of 1024 spp
 #: (docs/results/compare.md); the render costs about the same (mesh traversal depends little
-#: on the triangle count, benchmarks/profile_page4.py), only the mesh build grows.
+#: on the triangle count), only the mesh build grows.
 BLOB_FRACTION = 1.0 / 16.0
 #: |Perlin improved noise| <= this (about 1.04 is reached); with the 9 octaves' weights 1/k.
 NOISE_BOUND = 1.1

@@ -414,7 +414,7 @@ def _conic_sensor(w: _Writer, src: _Source, scene, sid: str, film: tuple[int, in
 
 
 #: The camera's sampler where its draws are random (lens, roulette), chosen from measurement
-#: (README "The tutorialpath integrator"); used where the sample count suits it (Mitsuba
+#: (docs/results/integrator.md, equal error); used where the sample count suits it (Mitsuba
 #: rounds other counts up), else ``independent``. Stratifying the Complexity rays of a
 #: sub-sample is legitimate: the tone curve acts on their mean.
 #: Page 4's whole image (benchmarks/bench_samplers.py --pairs --rect 0,0,640,480 --spp 16,64,
