@@ -99,3 +99,19 @@ def deferred() -> Iterator[None]:
             signal.signal(s, handler)
     if pending:
         raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def spared_children() -> Iterator[None]:
+    """Processes started in the body (a local Dask cluster's workers) ignore SIGINT: a Ctrl-C
+    reaches the whole process group, and each worker would print its tracebacks; this
+    process stops them when it stops. Only an ignored disposition survives the workers'
+    exec, so a Ctrl-C while they start (the body, about a second) is ignored here too."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

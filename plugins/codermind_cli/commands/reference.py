@@ -8,10 +8,11 @@ are plain bugs (see README). Scene errors print one line "file:line: message" an
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
-from .. import outputs
+from .. import outputs, signals
 from ..args import positive_float, positive_int, seed, tutorial_scene
 
 NAME = "reference"
@@ -52,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
     base = outputs.output_base(args.output, scene_path)
     outputs.check_outputs(base, [*ref.OUTPUT_SUFFIXES.values(), outputs.MANIFEST])
     from codermind_harness.cluster import open_runner
-    with open_runner(args.cluster) as runner:     # tiles of rows as units; same image
+    with contextlib.ExitStack() as stack:     # tiles of rows as units; same image
+        with signals.spared_children():
+            runner = stack.enter_context(open_runner(args.cluster))
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
                             progress=None if runner.remote else PortProgress(scene_path.name),
