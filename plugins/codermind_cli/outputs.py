@@ -242,9 +242,11 @@ def _rollback(staging: Path, folder: Path) -> bool:
         return False                        # the commit never started: nothing was touched
     if not (new / names[-1]).exists():
         return False                        # the manifest is in: the new set is complete
+    # Every backup is made before anything in the folder changes: a name without one was
+    # either not touched yet or (only a name of the new set) moved in with no predecessor.
     for n in [*names, *dropped]:
         if (old / n).exists():
             os.replace(old / n, folder / n)
-        elif not (new / n).exists():        # moved in by this run, no previous version
+        elif n in names and not (new / n).exists():
             (folder / n).unlink(missing_ok=True)
     return True
