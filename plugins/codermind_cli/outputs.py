@@ -34,7 +34,8 @@ from . import signals
 MANIFEST = ".manifest.json"
 #: Render and reference outputs: what an OUT may end in, dropped from it.
 IMAGE_SUFFIXES = (".exr", ".png", ".tga")
-_LEFTOVER = re.compile(r"^\..+\.codermind-(?P<pid>\d+)-[\w]+(\.tmp)?$")
+#: A staging folder of :func:`write_set` or a temporary file of ``codermind.imageio.atomic_path``.
+_LEFTOVER = re.compile(r"^\..+\.codermind-(?P<pid>\d+)-\w+(\.\w+)*$")
 
 
 def _after_step(step: str) -> None:

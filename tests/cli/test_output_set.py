@@ -154,3 +154,14 @@ def test_leftovers_of_a_killed_run_are_rolled_back_and_named_at_the_next(tmp_pat
     assert outputs.check_set(tmp_path / "out") == []
     assert now == old or now["out.png"] == b"png new"
     assert (now == old) == (step != "moved in out.manifest.json")
+
+
+def test_a_killed_run_s_temporary_file_is_removed_and_a_live_one_s_kept(tmp_path):
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    (tmp_path / f".x.xml.codermind-{dead}-abc123.tmp").write_text("partial")
+    live = tmp_path / f".y.xml.codermind-{os.getppid()}-abc123.tmp"
+    live.write_text("being written")
+    notes = outputs.recover_leftovers(tmp_path)
+    assert len(notes) == 1 and f"pid {dead}" in notes[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [live.name]
