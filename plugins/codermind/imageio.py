@@ -22,7 +22,10 @@ def atomic_path(dest: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path next to ``dest``; on success rename it to ``dest``."""
     dest = Path(dest)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=suffix + ".tmp", dir=dest.parent)
+    # The pid in the name: a later run can tell a killed run's leftover from a live one's
+    # (codermind_cli.outputs.recover_leftovers).
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.codermind-{os.getpid()}-",
+                               suffix=suffix + ".tmp", dir=dest.parent)
     os.close(fd)
     tmp = Path(tmp)
     umask = os.umask(0)

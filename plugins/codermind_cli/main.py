@@ -1,7 +1,9 @@
 """The ``codermind`` command line: one sub-command per module in :mod:`codermind_cli.commands`.
 
 User errors (bad files, bad parameters) are printed as one line
-``codermind: error: ...`` and exit with status 2, without a traceback.
+``codermind: error: ...`` and exit with status 2, without a traceback. SIGINT and SIGTERM
+(:mod:`codermind_cli.signals`) print one line ``codermind: interrupted`` and exit with status
+130, whatever the command was doing.
 """
 
 from __future__ import annotations
@@ -11,9 +13,7 @@ import importlib
 import pkgutil
 import sys
 
-from codermind.errors import CodermindError, one_line
-
-from . import commands
+from . import commands, signals
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -49,6 +49,21 @@ HARNESS_MODULES = ("matplotlib", "flip_evaluator")
 
 
 def main(argv: list[str] | None = None) -> int:
+    with signals.installed():   # first: an interrupt while Mitsuba imports is one line too
+        try:
+            return _run(argv)
+        except BaseException as e:
+            # Mitsuba and Dr.Jit may turn an interrupt into another error on its way out (a
+            # plugin interrupted while the scene loads fails the load): a signal decides.
+            if not (isinstance(e, KeyboardInterrupt) or signals.received() is not None):
+                raise
+            detail = f": {e}" if isinstance(e, signals.Interrupted) and str(e) else ""
+            print(f"codermind: interrupted{detail}", file=sys.stderr)
+            return EXIT_INTERRUPTED
+
+
+def _run(argv: list[str] | None) -> int:
+    from codermind.errors import CodermindError, one_line
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -56,9 +71,6 @@ def main(argv: list[str] | None = None) -> int:
     except CodermindError as e:
         print(f"codermind: error: {one_line(str(e))}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("codermind: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except ModuleNotFoundError as e:
         if e.name not in HARNESS_MODULES:
             raise

@@ -20,10 +20,11 @@ Modules, one concept each: ``syntax`` (comments, sections, keys with lines), ``c
 """
 
 from .errors import SceneError
-from .outputs import output_paths, write_outputs
+from .outputs import OUTPUT_SUFFIXES, output_paths, output_writers, write_outputs
 from .quirks import CLEAN, STRICT, Quirks
 from .driver import RenderResult, render
 from .scene import Scene, parse_scene
 
 __all__ = ["SceneError", "Scene", "parse_scene", "render", "RenderResult", "Quirks", "STRICT",
-           "CLEAN", "write_outputs", "output_paths"]
+           "CLEAN", "write_outputs", "output_paths",
+           "output_writers", "OUTPUT_SUFFIXES"]

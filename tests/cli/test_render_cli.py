@@ -60,7 +60,8 @@ def test_writes_exr_and_png_side_by_side(tmp_path):
     assert exr.shape == (32, 48, 3) and np.isfinite(exr).all() and exr.max() > 0
     png = (tmp_path / "img.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["img.exr", "img.png", "scene.xml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "img.exr", "img.manifest.json", "img.png", "scene.xml"]
 
 
 def test_fixed_seed_gives_a_bit_identical_exr(tmp_path):
@@ -253,7 +254,7 @@ def test_ctrl_c_writes_the_finished_passes_and_no_temp_files(tmp_path):
     assert proc.returncode == 130, err
     assert "interrupted" in err
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["part.exr", "part.png", "scene.xml"], names   # no temporary files
+    assert names == ["part.exr", "part.manifest.json", "part.png", "scene.xml"], names
     img = read_exr(tmp_path / "part.exr")
     assert img.shape == (48, 64, 3) and np.isfinite(img).all() and img.mean() > 0
 

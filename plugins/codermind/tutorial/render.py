@@ -261,16 +261,26 @@ def render(scene: mi.Scene, settings: ToneSettings, spp: int | None = None, seed
                           time.perf_counter() - t0, times)
 
 
-def write_outputs(result: TutorialRender, base: str | os.PathLike) -> list[Path]:
-    """``base.exr`` (the linear film), ``base.png`` and ``base.tga`` (the tutorial's bytes),
-    ``base.variance.exr`` when the variance was estimated; atomic writes."""
-    base = Path(base)
-    paths = [base.with_suffix(".exr"), base.with_suffix(".png"), base.with_suffix(".tga")]
-    write_exr(paths[0], result.linear)
-    write_png_bytes(paths[1], result.image.rgb8)
-    with atomic_path(paths[2]) as tmp:
-        tmp.write_bytes(tga_bytes(result.image.rgb8))
+def output_writers(result: TutorialRender) -> dict[str, Callable[[Path], None]]:
+    """How to write each file of a render, by the suffix after OUT: ``.exr`` (the linear
+    film), ``.png`` and ``.tga`` (the tutorial's bytes), ``.variance.exr`` when the variance
+    was estimated."""
+    def tga(path: Path) -> None:
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(tga_bytes(result.image.rgb8))
+    writers = {".exr": lambda path: write_exr(path, result.linear),
+               ".png": lambda path: write_png_bytes(path, result.image.rgb8), ".tga": tga}
     if result.variance is not None:
-        paths.append(base.with_name(base.name + ".variance.exr"))
-        write_exr(paths[-1], result.variance)
+        writers[".variance.exr"] = lambda path: write_exr(path, result.variance)
+    return writers
+
+
+def write_outputs(result: TutorialRender, base: str | os.PathLike) -> list[Path]:
+    """``base.exr``, ``base.png``, ``base.tga`` [, ``base.variance.exr``] (the name kept
+    whole, the extension appended); each file written atomically."""
+    base = Path(base)
+    paths = []
+    for suffix, write in output_writers(result).items():
+        paths.append(base.with_name(base.name + suffix))
+        write(paths[-1])
     return paths

@@ -16,6 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from .. import outputs
 from ..args import positive_float, positive_int, tutorial_scene
 
 NAME = "convert"
@@ -25,7 +26,9 @@ HELP = "convert a tutorial scene file to Mitsuba XML"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.txt", help="tutorial scene file")
     p.add_argument("-o", "--output", metavar="SCENE.xml",
-                   help="output XML (default: the scene's name with .xml, in the current folder)")
+                   help="output XML, the name kept whole and .xml appended unless it ends so; "
+                        "a folder (or OUT/): the scene's name in it; default: the scene's "
+                        "name with .xml, in the current folder")
     p.add_argument("--target", type=positive_float, default=None,
                    help="pixel-error target of the model choice, in 8-bit levels (default 0.5)")
     p.add_argument("--max-depth", type=positive_int, help="Mitsuba max_depth (path depth + 1; the "
@@ -75,9 +78,8 @@ def run(args: argparse.Namespace) -> int:
         raise CodermindError("--lights applies to --integrator path (tutorialpath adds every "
                              "light at every hit)")
     scene_path = Path(args.scene)
-    out = Path(args.output) if args.output else Path.cwd() / (scene_path.stem + ".xml")
-    if out.suffix.lower() != ".xml":
-        out = out.with_suffix(".xml")
+    base = outputs.output_base(args.output, scene_path, (".xml",))
+    out = outputs.check_outputs(base, (".xml",))[0]
     result = convert_file(tutorial_scene(scene_path), out, target=args.target, max_depth=args.max_depth,
                           spp=args.spp, blob_max_error=args.blob_max_error,
                           exposure=args.exposure, lights=args.lights,

@@ -1,15 +1,18 @@
 """Render a tutorial scene file (versions 1.0, 1.1, 1.3) with the standalone numpy port of the
 tutorial programs, writing OUT.tga (the original's bytes), OUT.png, OUT.exr (linear radiance
-per sub-sample, float32) and OUT.variance.exr (variance of that mean over the Complexity rays).
+per sub-sample, float32) and OUT.variance.exr (variance of that mean over the Complexity rays),
+replaced as a set with OUT.manifest.json (:mod:`codermind_cli.outputs`).
 --mode strict reproduces the original programs, quirks included; clean removes the quirks that
 are plain bugs (see README). Scene errors print one line "file:line: message" and exit 2."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
+from .. import outputs, signals
 from ..args import positive_float, positive_int, seed, tutorial_scene
 
 NAME = "reference"
@@ -19,7 +22,10 @@ HELP = "render a tutorial scene.txt with the standalone port (TGA, PNG, EXR)"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.txt", help="tutorial scene file")
     p.add_argument("-o", "--output", metavar="OUT",
-                   help="output path without extension (default: the scene's name here)")
+                   help="output name, kept whole: OUT.tga, OUT.png, OUT.exr, "
+                        "OUT.variance.exr, OUT.manifest.json; a trailing .tga/.png/.exr is "
+                        "dropped; a folder (or OUT/): the scene's name in it; default: the "
+                        "scene's name here")
     p.add_argument("--mode", choices=("strict", "clean"), default="strict",
                    help="strict: the original programs (default); clean: quirks removed")
     p.add_argument("--seed", type=seed, default=0, help="random seed (page 4; default 0)")
@@ -44,11 +50,12 @@ def run(args: argparse.Namespace) -> int:
     scene = tutorial_scene(scene_path)
     for warning in scene.warnings:
         print(f"codermind: warning: {warning}", file=sys.stderr)
-    base = Path(args.output) if args.output else Path.cwd() / scene_path.stem
-    if base.suffix.lower() in (".tga", ".png", ".exr"):
-        base = base.with_suffix("")
+    base = outputs.output_base(args.output, scene_path)
+    outputs.check_outputs(base, [*ref.OUTPUT_SUFFIXES.values(), outputs.MANIFEST])
     from codermind_harness.cluster import open_runner
-    with open_runner(args.cluster) as runner:     # tiles of rows as units; same image
+    with contextlib.ExitStack() as stack:     # tiles of rows as units; same image
+        with signals.spared_children():
+            runner = stack.enter_context(open_runner(args.cluster))
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
                             progress=None if runner.remote else PortProgress(scene_path.name),
@@ -56,11 +63,11 @@ def run(args: argparse.Namespace) -> int:
     for warning in result.warnings[len(scene.warnings):]:     # found while rendering
         print(f"codermind: warning: {warning}", file=sys.stderr)
     try:
-        paths = ref.write_outputs(result, base)
+        paths = outputs.write_set(base, ref.output_writers(result))
     except OSError as e:
         raise CodermindError(f"{e.filename or base}: cannot write: {e.strerror or e}") from None
     exposure = "" if result.exposure is None else f", exposure {result.exposure:.6g}"
-    print(f"wrote {', '.join(str(p) for p in paths.values())} ({result.mode}, page "
+    print(f"wrote {', '.join(str(p) for p in paths)} ({result.mode}, page "
           f"{scene.page}, seed {result.seed}, complexity {result.complexity}{exposure}, "
           f"{result.seconds:.2f} s)")
     return 0

@@ -1,6 +1,7 @@
 """Render a Mitsuba XML scene (built-in plugins and this package's) to a linear EXR and an
-sRGB PNG written side by side, atomically. The samples are rendered in passes with distinct
-seeds and accumulated; Ctrl-C stops after the current pass and writes what is done.
+sRGB PNG written side by side, replaced as a set with OUT.manifest.json
+(:mod:`codermind_cli.outputs`). The samples are rendered in passes with distinct seeds and
+accumulated; Ctrl-C or SIGTERM stops after the current pass and writes what is done.
 
 A scene converted from a tutorial scene file (`codermind convert`; it carries a
 codermind-tutorial comment block) goes through the tutorial's image pipeline instead: the
@@ -10,10 +11,10 @@ calibration strip), the EXR the linear film of sub-samples (2W x 2H on pages 2 a
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from pathlib import Path
 
+from .. import outputs, signals
 from ..args import define, exposure as exposure_option, positive_int, seed
 
 NAME = "render"
@@ -24,8 +25,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", metavar="SCENE.xml", help="Mitsuba XML scene, or the name of a "
                    "bundled scene (page1 .. page4, garden) when no such file exists here")
     p.add_argument("-o", "--output", metavar="OUT",
-                   help="output path without extension (OUT.exr and OUT.png); "
-                        "default: the scene's name in the current folder")
+                   help="output name, kept whole: OUT.exr, OUT.png (+ OUT.tga, "
+                        "OUT.manifest.json); a trailing .exr/.png/.tga is dropped; a folder "
+                        "(or OUT/): the scene's name in it; default: the scene's name here")
     p.add_argument("--spp", type=positive_int, help="samples per pixel (default: the scene's sampler)")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb; scalar_rgb for "
                                      "debugging, cuda_ad_rgb with a GPU)")
@@ -53,11 +55,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "parallel film accumulation adds samples in a varying order")
 
 
-def output_base(scene: Path, output: str | None) -> Path:
-    if output is None:
-        return Path.cwd() / scene.stem
-    out = Path(output)
-    return out.with_suffix("") if out.suffix.lower() in (".exr", ".png", ".tga") else out
+#: Every file a render may write, checked before it starts.
+SUFFIXES = (".exr", ".png", ".tga", ".variance.exr", outputs.MANIFEST)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -69,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
     if not scene_path.is_file():
         raise CodermindError(f"{scene_path}: no such scene file")
 
+    base = outputs.output_base(args.output, scene_path)
+    outputs.check_outputs(base, SUFFIXES)
     defines = dict(args.define)
     from codermind.tutorial.render import read_settings
     settings = None if args.plain else read_settings(scene_path)
@@ -91,40 +92,29 @@ def run(args: argparse.Namespace) -> int:
         # the same pool and deadlock when it has a single thread.
         dr.set_thread_count(1)
     spp = args.spp or scene_spp(scene)
-    base = output_base(scene_path, args.output)
-
-    stop = {"requested": False}
-
-    def on_sigint(signum, frame):
-        if stop["requested"]:
-            raise KeyboardInterrupt
-        stop["requested"] = True
-        print("\ncodermind: Ctrl-C: stopping after the current pass (again to abort without "
-              "writing)", file=sys.stderr, flush=True)
 
     if settings is not None:
         from codermind.tutorial import render as tutorial_render
         tutorial_render.check_film(scene, settings, scene_path)
-    previous = signal.signal(signal.SIGINT, on_sigint)
-    try:
-        if settings is not None:
-            result = tutorial_render.render(
-                scene, settings, spp=spp, seed=args.seed, exposure=args.exposure,
-                lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
-                progress=Progress(spp, label=scene_path.name),
-                should_stop=lambda: stop["requested"])
-        else:
-            result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
-                                   progress=Progress(spp, label=scene_path.name),
-                                   should_stop=lambda: stop["requested"])
-    except (RuntimeError, ValueError) as e:   # e.g. a plugin rejecting its scene at render time
-        cause = raised_inside(e)
-        if not isinstance(cause, (RuntimeError, ValueError)):
-            raise cause from None                 # a defect, not the user's: its traceback
-        raise CodermindError(f"{scene_path}: rendering failed: {cause}") from None
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        dr.set_thread_count(threads)
+    with signals.stop_requests() as should_stop:    # SIGINT, SIGTERM: after this pass
+        try:
+            if settings is not None:
+                result = tutorial_render.render(
+                    scene, settings, spp=spp, seed=args.seed, exposure=args.exposure,
+                    lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
+                    progress=Progress(spp, label=scene_path.name),
+                    should_stop=should_stop)
+            else:
+                result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
+                                       progress=Progress(spp, label=scene_path.name),
+                                       should_stop=should_stop)
+        except (RuntimeError, ValueError) as e:   # e.g. a plugin rejecting its scene
+            cause = raised_inside(e)
+            if not isinstance(cause, (RuntimeError, ValueError)):
+                raise cause from None                 # a defect, not the user's: its traceback
+            raise CodermindError(f"{scene_path}: rendering failed: {cause}") from None
+        finally:
+            dr.set_thread_count(threads)
 
     if settings is not None:
         return _finish_tutorial(result, base)
@@ -133,30 +123,32 @@ def run(args: argparse.Namespace) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
-    exr, png = base.with_suffix(".exr"), base.with_suffix(".png")
-    write_exr(exr, result.image, result.channel_names)
-    write_png_srgb(png, result.image)
+    exr, png = outputs.write_set(base, {
+        ".exr": lambda path: write_exr(path, result.image, result.channel_names),
+        ".png": lambda path: write_png_srgb(path, result.image)})
     if result.interrupted:
-        print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
-              f"finished to {exr} and {png}", file=sys.stderr)
+        print(f"codermind: interrupted ({signals.describe(signals.received())}): wrote the "
+              f"{result.spp} of {result.spp_requested} spp finished to {exr} and {png}",
+              file=sys.stderr)
         return 130
     print(f"wrote {exr} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
     return 0
 
 
 def _finish_tutorial(result, base: Path) -> int:
-    from codermind.tutorial.render import write_outputs
+    from codermind.tutorial.render import output_writers
     if result is None:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
-    paths = write_outputs(result, base)
+    paths = outputs.write_set(base, output_writers(result))
     names = ", ".join(str(p) for p in paths)
     exposure = "" if result.exposure is None else \
         f", exposure {result.exposure:.6g} ({result.exposure_source})"
     if result.interrupted:
-        print(f"codermind: interrupted: wrote the {result.spp} of {result.spp_requested} spp "
-              f"finished to {names}", file=sys.stderr)
+        print(f"codermind: interrupted ({signals.describe(signals.received())}): wrote the "
+              f"{result.spp} of {result.spp_requested} spp finished to {names}",
+              file=sys.stderr)
         return 130
     print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
           f"{result.seconds:.2f} s)")
