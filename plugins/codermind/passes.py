@@ -44,6 +44,19 @@ def pass_plan(spp: int, pixels: int, pass_spp: int | None = None) -> list[int]:
     return [per] * full + ([rest] if rest else [])
 
 
+def divisors_of(n: int) -> list[int]:
+    """The divisors of ``n`` >= 1, ascending, in O(sqrt n) steps (2^32: 65 536 steps)."""
+    small, large = [], []
+    i = 1
+    while i * i <= n:
+        if n % i == 0:
+            small.append(i)
+            if i * i != n:
+                large.append(n // i)
+        i += 1
+    return small + large[::-1]
+
+
 def sampler_plan(sampler: mi.Sampler, spp: int, pixels: int,
                  pass_spp: int | None = None) -> list[int]:
     """Samples per pixel of each pass of ``sampler``, adding up to ``spp``.
@@ -64,19 +77,21 @@ def sampler_plan(sampler: mi.Sampler, spp: int, pixels: int,
     level = logger.log_level()
 
     def kept(n: int) -> bool:
+        if n >= 1 << 32:                        # Mitsuba's sample count is 32-bit
+            return False
         sampler.set_sample_count(n)
         return sampler.sample_count() == n
 
     logger.set_log_level(mi.LogLevel.Error)    # the probes' rounding warnings
     try:
         plan = pass_plan(spp, pixels, pass_spp)
-        if all(kept(n) for n in set(plan)):
+        if all(kept(n) for n in {plan[0], plan[-1]}):     # its only counts
             return plan
         limit = min(spp, pass_spp or max(1, STRATA_BUDGET // max(pixels, 1)))
-        divisors = [n for n in range(1, spp + 1) if spp % n == 0 and kept(n)]
+        divisors = [n for n in divisors_of(spp) if kept(n)]
         if not divisors:
             kept(spp)
-            rounded = sampler.sample_count()     # for the message
+            rounded = sampler.sample_count() if spp < 1 << 32 else spp  # for the message
     finally:
         sampler.set_sample_count(count)
         logger.set_log_level(level)

@@ -25,7 +25,8 @@ def load_scene(path: str | os.PathLike, **params) -> mi.Scene:
         if "no probability mass" in message:
             message += (" (every emitter has sampling_weight 0, e.g. the only emitter is a "
                         "background-mode cubemap: give it sampling_weight 1)")
-        raise CodermindError(message) from None
+        from .xmlwhere import locate
+        raise CodermindError(locate(path, message)) from None
     attach_emitters(scene)
     return scene
 

@@ -66,6 +66,31 @@ def parse_address(text: str) -> tuple[str, str | int]:
                        "local:N (N worker processes)")
 
 
+def _connect(distributed, address: str, value: str):
+    """``distributed.Client(value)`` within CONNECT_TIMEOUT_S whatever the endpoint does:
+    the Client's own timeout does not hold for an address that accepts TCP connections and
+    never answers (it waits in the handshake for minutes), so the connection is made in a
+    daemon thread given the same time; past it, one line."""
+    box: dict = {}
+
+    def connect():
+        try:
+            box["client"] = distributed.Client(value, timeout=CONNECT_TIMEOUT_S)
+        except BaseException as e:      # handed to the caller's thread
+            box["error"] = e
+
+    thread = threading.Thread(target=connect, name="cluster-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT_S)
+    if thread.is_alive():
+        raise ClusterError(f"--cluster {address}: no answer from the scheduler within "
+                           f"{CONNECT_TIMEOUT_S} s (something accepts connections there, but "
+                           "not a Dask scheduler that responds)")
+    if "error" in box:
+        raise box["error"]
+    return box["client"]
+
+
 def _identity(x):
     return x
 
@@ -85,7 +110,7 @@ class Cluster(RemoteRunner):
                     dashboard_address=None, silence_logs=40)
                 self.client = distributed.Client(self._cluster)
             else:
-                self.client = distributed.Client(value, timeout=CONNECT_TIMEOUT_S)
+                self.client = _connect(distributed, address, value)
         except (OSError, TimeoutError) as e:
             self.close()
             raise ClusterError(f"--cluster {address}: cannot connect: {e}") from None

@@ -93,7 +93,11 @@ def _tone_point(p: tuple) -> dict:
     if p[0] == "render":
         _, version, light = p
         with tempfile.TemporaryDirectory() as tmp:
-            scene = ref.parse_scene(_page4_scene(Path(tmp), light, version=version))
+            # the parser refuses a light that is not finite in float32 (codermind_ref.checks):
+            # the scene is parsed with a finite one, then given the swept value
+            scene = ref.parse_scene(_page4_scene(Path(tmp), "1", version=version))
+            value = float(light)
+            scene.lights[0].intensity = (value, value, value)
             with np.errstate(all="ignore"):
                 result = ref.render(scene, "clean", exposure=1.0)
         return {"lit": result.rgb8[4:12, 8:16],

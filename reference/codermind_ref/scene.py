@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cnumbers, tga
+from . import checks, cnumbers, tga
 from .errors import SceneError
 from .syntax import Section, read_sections
 
@@ -313,6 +313,7 @@ def parse_scene(path: str | os.PathLike) -> Scene:
 
     if page == 4:
         _read_page4(scene, top, Path(path).parent)
+    checks.check_scene(scene)
     return scene
 
 

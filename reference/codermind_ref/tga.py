@@ -21,11 +21,32 @@ class TgaError(ValueError):
     """A face the tutorial's loader cannot read correctly; the message says why."""
 
 
+#: Largest face read, in pixels (16384 x 16384: 6.4 GiB of float64 per face once decoded).
+#: A TGA header can claim up to 65535 x 65535 (12.9 GB); the size is checked against this
+#: and against the file's size before any pixel is read.
+MAX_FACE_PIXELS = 16384 * 16384
+
+
+def _check_size(path, header: bytes, size: int) -> None:
+    width, height = header[12] | header[13] << 8, header[14] | header[15] << 8
+    if width * height > MAX_FACE_PIXELS:
+        raise TgaError(f"'{path}' claims {width}x{height} pixels, more than the "
+                       f"{MAX_FACE_PIXELS} a face may have (16384 x 16384)")
+    if header[2] == 2 and header[16] == 24 and size < 18 + width * height * 3:
+        raise TgaError(f"'{path}' is truncated ({max(size - 18, 0)} of {width * height * 3} "
+                       "pixel bytes)")
+
+
 def read_face(path: str | os.PathLike) -> tuple[np.ndarray, list[str]]:
     """Load a face as the original does: float64 array (rows, cols, 3) in stored row order,
     RGB, values byte / 255; returns (pixels, warnings)."""
     try:
-        data = open(path, "rb").read()
+        with open(path, "rb") as f:
+            data = f.read(18)
+            size = os.fstat(f.fileno()).st_size
+            if len(data) == 18:
+                _check_size(path, data, size)
+                data += f.read((data[12] | data[13] << 8) * (data[14] | data[15] << 8) * 3)
     except OSError as e:
         raise TgaError(f"cannot read '{path}': {e.strerror or e}") from None
     if len(data) < 18:

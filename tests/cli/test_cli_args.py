@@ -69,8 +69,11 @@ def _types(parser: argparse.ArgumentParser, option: str) -> set:
     return found
 
 
+from codermind_cli.limits import worker_count  # noqa: E402  (--workers: capped per core)
+
+
 @pytest.mark.parametrize("option, kind", [
-    ("--seed", args.seed), ("--spp", args.positive_int), ("--workers", args.positive_int),
+    ("--seed", args.seed), ("--spp", args.positive_int), ("--workers", worker_count),
     ("--blob-max-error", args.positive_float), ("--define", args.define),
 ])
 def test_every_command_checks_an_option_the_same_way(option, kind):

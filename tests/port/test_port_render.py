@@ -453,8 +453,10 @@ def test_non_finite_radiance_and_black_probes_are_reported(tmp_path):
         tmp_path, "1.3", "Image.Width = 24;\nImage.Height = 24;\nPerspective.Type = conic;\n"
         "NumberOfMaterials = 1;\nNumberOfSpheres = 1;\nNumberOfLights = 1;\n",
         "Material0 { Diffuse = 0.5; }\nSphere0 { Center = 12, 12, 60; Size = 40; }\n"
-        "Light0 { Position = 12, 12, -100; Intensity = nan; }\n"))
+        "Light0 { Position = 12, 12, -100; Intensity = 1; }\n"))
     assert scene.warnings == []
+    # the parser refuses a NaN (codermind_ref.checks); a scene changed after parsing is not
+    scene.lights[0].intensity = (float("nan"),) * 3
     with np.errstate(all="ignore"):
         result = ref.render(scene, exposure=1.0)
     assert np.isnan(result.linear[:20]).all() and (result.rgb8[:-10] == 0).all()

@@ -1,5 +1,6 @@
 from __future__ import annotations  # Delayed parsing of type annotations
 
+import os
 from pathlib import Path
 
 import drjit as dr
@@ -511,6 +512,8 @@ def _read_face(name: str, filename: str) -> tuple[str, np.ndarray]:
     if not path.is_file():
         raise ValueError(f"cubemap: face '{name}': file '{filename}' not found")
     is_tga = path.suffix.lower() == ".tga"
+    if is_tga:
+        _check_tga_size(name, filename, path)
     try:
         pixels = _bitmap_rgb(mi.Bitmap(str(path)))
     except Exception as e:        # Mitsuba raises RuntimeError with its own prefix
@@ -528,6 +531,27 @@ def _read_face(name: str, filename: str) -> tuple[str, np.ndarray]:
         if len(header) == 18 and header[17] & 0x20:     # top-left origin: stored = Mitsuba's
             return str(path), pixels
     return str(path), pixels[::-1]
+
+
+#: Largest face, in pixels (16384 x 16384). A TGA header may claim 65535 x 65535 (12.9 GB
+#: at 24 bits); the claim is checked against this and the file's size before reading.
+MAX_FACE_PIXELS = 16384 * 16384
+
+
+def _check_tga_size(name: str, filename: str, path: Path) -> None:
+    with open(path, "rb") as f:
+        header = f.read(18)
+        size = os.fstat(f.fileno()).st_size
+    if len(header) < 18:
+        return                                      # Mitsuba's own error follows
+    width, height = header[12] | header[13] << 8, header[14] | header[15] << 8
+    if width * height > MAX_FACE_PIXELS:
+        raise ValueError(f"cubemap: face '{name}': '{filename}' claims {width}x{height} "
+                         f"pixels, more than a face may have (16384 x 16384)")
+    channels = {(2, 24): 3, (2, 32): 4, (3, 8): 1}.get((header[2], header[16]))
+    if channels and size < 18 + header[0] + width * height * channels:
+        raise ValueError(f"cubemap: face '{name}': '{filename}' is truncated (its header "
+                         f"says {width}x{height}, the file has {size} bytes)")
 
 
 def _read_plain_tga(path: Path) -> np.ndarray | None:

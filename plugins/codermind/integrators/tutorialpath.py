@@ -202,8 +202,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                              f"{self.quirks!r}")
         # scalar variants run the loop once per ray and have no null BSDF to call on a miss
         # (si.bsdf() is None there): a stand-in whose every call is masked off
+        # (JIT variants too when the scene has no shape: si.bsdf() is then None as well)
         self.scalar = not dr.is_jit_v(mi.Float)
-        self.stand_in = mi.load_dict({"type": "tutorial"}) if self.scalar else None
+        self.stand_in = mi.load_dict({"type": "tutorial"})
 
     # -- the scene's emitters, sorted once per kernel trace ---------------------------------
     def _emitters(self, scene: mi.Scene):
@@ -336,6 +337,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                medium: mi.Medium = None, active: mi.Bool = True
                ) -> tuple[mi.Spectrum, mi.Bool, list[mi.Float]]:
         strict = self.quirks == "strict"
+        # no shape (an empty tutorial scene): every ray misses; the stand-in BSDF is masked off
+        empty = len(scene.shapes()) == 0
+        direct = self.scalar or empty          # call the BSDF itself, not through a dispatch
         deltas, generic = self._emitters(scene)
         exact = self._exact_shapes(scene)
         has_exact = len(exact) > 0
@@ -428,7 +432,9 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 L += beta * mis * emitter.eval(si, active)
 
             active_next = active & si.is_valid() & (depth + 1 < max_depth)
-            if dr.hint(self.scalar, mode="scalar"):
+            if empty:
+                bsdf = self.stand_in
+            elif dr.hint(self.scalar, mode="scalar"):
                 bsdf = si.bsdf(ray) if si.is_valid() else self.stand_in
             else:
                 bsdf = si.bsdf(ray)
@@ -471,7 +477,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
             wos = [si.to_local(sample[0].d) for sample in samples]
             u = sampler.next_1d()
             u2 = sampler.next_2d()
-            if dr.hint(self.scalar, mode="scalar"):
+            if dr.hint(direct, mode="scalar"):
                 values, bs, weight = _eval_sample(bsdf, ctx, si, wos, u, u2, active_next)
             else:
                 values, bs, weight = dr.dispatch(bsdf, _eval_sample, ctx, si, wos, u, u2,

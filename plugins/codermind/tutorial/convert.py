@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from ..errors import CodermindError
 from ..imageio import atomic_path
+from .finite import check_finite
 from .model import DEFAULT_TARGET, FULL_DEPTH, choose
 from .xml import Conversion, convert
 
@@ -47,6 +48,7 @@ def convert_scene(scene, out: str | os.PathLike | None, target: float | None = N
                   lights: str | None = None, command: str | None = None,
                   integrator: str = "tutorialpath", quirks: str = "clean") -> Conversion:
     """The conversion of a parsed scene (the model chosen, with the probe pass if needed)."""
+    check_finite(scene)     # before the model choice, which computes with the values
     target = DEFAULT_TARGET if target is None else target
     forced_depth = quirks == "strict" and max_depth is None
     if forced_depth:

@@ -44,6 +44,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..errors import CodermindError
+from .finite import check_finite
 from .image import ToneSettings, format_block, format_number
 from .model import Model
 
@@ -160,6 +161,7 @@ def settings_of(scene, lights: str = "sum") -> ToneSettings:
 # -- checks of what the plugins can express ----------------------------------------------
 
 def _check_scene(scene, src: _Source) -> None:
+    check_finite(scene)
     page = scene.page
     for m in scene.materials:
         sec = f"Material{m.index}"

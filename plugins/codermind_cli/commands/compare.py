@@ -29,6 +29,7 @@ import argparse
 from pathlib import Path
 
 from ..args import define, fraction, level, positive_float, positive_int, rect, seed
+from ..limits import worker_count
 
 NAME = "compare"
 HELP = ("compare the Mitsuba plugins with the port on tutorial scenes (z-test, FLIP, relMSE, "
@@ -80,7 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(bytes within one level, or the float tolerance), random ones "
                         "statistically against our side's noise floor (default --spp: the "
                         "scene's Complexity, the sample count the reference must have)")
-    p.add_argument("--workers", type=positive_int, metavar="N", help="port worker processes")
+    p.add_argument("--workers", type=worker_count, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     p.add_argument("--cluster", metavar="ADDRESS",

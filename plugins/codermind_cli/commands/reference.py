@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import outputs, signals
 from ..args import positive_float, positive_int, seed, tutorial_scene
+from ..limits import worker_count
 
 NAME = "reference"
 HELP = "render a tutorial scene.txt with the standalone port (TGA, PNG, EXR)"
@@ -33,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="rays per sub-sample (page 4; default: the scene's Complexity)")
     p.add_argument("--exposure", type=positive_float, metavar="E",
                    help="fixed exposure instead of the page-4 auto exposure (page 2: default 1)")
-    p.add_argument("--workers", type=positive_int, metavar="N",
+    p.add_argument("--workers", type=worker_count, metavar="N",
                    help="worker processes (default: one per core for large renders); "
                         "the image does not depend on it")
     p.add_argument("--cluster", metavar="ADDRESS",
@@ -50,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     scene = tutorial_scene(scene_path)
     for warning in scene.warnings:
         print(f"codermind: warning: {warning}", file=sys.stderr)
+    from ..limits import check_reference
+    check_reference(scene_path, scene, args.complexity, args.workers)
     base = outputs.output_base(args.output, scene_path)
     outputs.check_outputs(base, [*ref.OUTPUT_SUFFIXES.values(), outputs.MANIFEST])
     from codermind_harness.cluster import open_runner

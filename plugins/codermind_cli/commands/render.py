@@ -92,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         # the same pool and deadlock when it has a single thread.
         dr.set_thread_count(1)
     spp = args.spp or scene_spp(scene)
+    from ..limits import check_render
+    check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp)
 
     if settings is not None:
         from codermind.tutorial import render as tutorial_render

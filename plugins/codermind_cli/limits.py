@@ -1,0 +1,149 @@
+"""Limits checked before work starts: a request the machine cannot hold is refused in one line
+with its estimate (``codermind: error: ... needs about 9.6 GiB, more than the 6.2 GiB
+allowed ...``); one that will take long gets a one-line warning with the estimated time.
+
+Memory: the estimate of each command (measured, with /usr/bin/time, on renders of 1000 to 3000
+pixels a side: about 250 MiB plus 140 bytes per film pixel for ``render``, 150 per sub-sample
+for ``reference``, plus the pass or tile lists, which grow with ``--spp`` and
+``--complexity``) is compared with the allowed memory: 80 % of the machine's total
+(``/proc/meminfo``), or ``CODERMIND_MAX_MEMORY`` GiB where that is set (it may exceed the
+total, for a machine with swap). Time: estimated from a measured rate: a warning above 10
+minutes, a refusal above a year. Workers: at most 4 per core (``--workers``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+
+from codermind.errors import CodermindError
+
+GIB = float(1 << 30)
+ENV = "CODERMIND_MAX_MEMORY"
+#: Fraction of the total memory allowed by default.
+DEFAULT_FRACTION = 0.8
+#: Memory every render starts with (Python, Mitsuba, Dr.Jit's LLVM), bytes.
+BASE = 250 << 20
+#: ``render``: bytes per film pixel (film, accumulation, bitmaps; measured 100 to 135).
+RENDER_PER_PIXEL = 140
+#: ``reference``: bytes per sub-sample (sums, squares, outputs; measured about 146).
+REFERENCE_PER_SAMPLE = 150
+#: A Python list entry (pass plans) and a tile tuple of the port, bytes.
+PER_PASS, PER_TILE = 8, 120
+#: Rays per second, for the time warning only: Mitsuba's llvm render on 2 cores of this
+#: machine (about 1e6 to 3e6 samples/s), the port (about 1e6 rays/s per worker).
+RENDER_RATE, REFERENCE_RATE = 2e6, 1e6
+#: Warn above this estimated time, seconds.
+LONG = 600.0
+#: Refuse above this estimated time (a year), seconds: a request that size is a typo.
+NEVER = 365.25 * 86400
+#: ``--workers`` above this many per core is refused.
+WORKERS_PER_CORE = 4
+
+
+def cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def total_memory() -> int:
+    """The machine's total memory in bytes (``/proc/meminfo``, else ``os.sysconf``)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemTotal:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return 8 << 30
+
+
+def memory_limit() -> tuple[float, str]:
+    """(bytes allowed, where the limit comes from)."""
+    text = os.environ.get(ENV)
+    if text:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not 0 < value < math.inf:
+            raise CodermindError(f"{ENV}={text!r}: expected a number of GiB > 0")
+        return value * GIB, f"{ENV}={text}"
+    total = total_memory()
+    return DEFAULT_FRACTION * total, (f"{DEFAULT_FRACTION:.0%} of this machine's "
+                                       f"{total / GIB:.1f} GiB; set {ENV}=GiB to allow more")
+
+
+def duration(seconds: float) -> str:
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600),
+                       ("minutes", 60)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds:.3g} s"
+
+
+def check(what: str, need: float, seconds: float | None = None) -> None:
+    """Refuse ``what`` if ``need`` bytes exceed the allowed memory; warn if ``seconds`` is
+    long."""
+    limit, source = memory_limit()
+    if need > limit:
+        raise CodermindError(f"{what} needs about {need / GIB:.3g} GiB, more than the "
+                             f"{limit / GIB:.3g} GiB allowed ({source}); nothing was started")
+    if seconds is not None and seconds > NEVER:
+        raise CodermindError(f"{what} would take about {duration(seconds)} (estimated at "
+                             f"{'this' if seconds < 1e12 else 'any'} machine's pace); "
+                             "nothing was started")
+    if seconds is not None and seconds > LONG:
+        print(f"codermind: warning: {what} will take about {duration(seconds)} "
+              "(estimated; Ctrl-C stops it)",
+              file=sys.stderr, flush=True)
+
+
+def worker_count(text: str) -> int:
+    """``--workers``: an integer in [1, 4 x cores] (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    cap = WORKERS_PER_CORE * cores()
+    if not 1 <= value <= cap:
+        raise argparse.ArgumentTypeError(f"must be in [1, {cap}] ({WORKERS_PER_CORE} per "
+                                         f"core of this machine's {cores()}), got {value}")
+    return value
+
+
+def check_render(scene_path, width: int, height: int, spp: int, runs: int = 1,
+                 pass_spp: int | None = None) -> None:
+    """``codermind render``: a film of ``width`` x ``height`` pixels, ``spp`` samples,
+    ``runs`` renders (one per light when a tutorial scene sums its lights)."""
+    from codermind.passes import LANE_BUDGET
+    pixels = max(int(width), 1) * max(int(height), 1)
+    per = min(spp, pass_spp or max(1, LANE_BUDGET // pixels))
+    passes = math.ceil(spp / per)
+    need = BASE + RENDER_PER_PIXEL * pixels + PER_PASS * passes
+    seconds = pixels * spp * runs / RENDER_RATE
+    check(f"{scene_path}: rendering {width}x{height} pixels at {spp} spp", need, seconds)
+
+
+def check_reference(scene_path, scene, complexity: int | None = None,
+                    workers: int | None = None) -> None:
+    """``codermind reference`` (and the port's side of ``compare``)."""
+    from codermind_ref.driver import TILE_RAYS
+    per_pixel = 1 if scene.page == 1 else 4
+    c = int(complexity or scene.complexity) if scene.page == 4 else 1
+    samples = scene.width * scene.height * per_pixel
+    per_row = scene.width * per_pixel
+    reps = max(1, min(c, TILE_RAYS // per_row))
+    rows = max(1, TILE_RAYS // (per_row * reps)) if reps == c else 1
+    tiles = math.ceil(scene.height / rows) * math.ceil(c / reps)
+    n = workers or 1
+    need = BASE + REFERENCE_PER_SAMPLE * samples + PER_TILE * tiles + (n - 1) * (100 << 20)
+    seconds = samples * c / (REFERENCE_RATE * min(n, cores()))
+    check(f"{scene_path}: {scene.width}x{scene.height} pixels at complexity {c}", need, seconds)
