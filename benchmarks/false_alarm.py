@@ -128,11 +128,17 @@ def which(failures: list[str]) -> str:
 
 
 def blob_sub_samples(rec: dict, case) -> int:
-    """Sub-samples of the grid whose lens-centre ray meets a blob first (0 off page 4)."""
+    """Sub-samples of the grid whose lens-centre ray meets a blob first (0 off page 4).
+    The labels come from Mitsuba's intersection, which sees a blob only as a mesh: the
+    converted scene's analytic blob (``blob_tessellate`` false) is meshed for them."""
     if rec["page"] != 4:
         return 0
     from codermind_harness import sides
-    lab, names = sides.object_labels(Path(rec["xml"]), case.grid, rec["defines"])
+    xml = Path(rec["xml"])
+    defines = dict(rec["defines"])
+    if 'name="blob_tessellate"' in xml.read_text(encoding="utf-8"):
+        defines["blob_tessellate"] = "true"
+    lab, names = sides.object_labels(xml, case.grid, defines)
     blobs = [k for k, n in enumerate(names) if "blob" in n.lower()]
     return int(sum((lab == k).sum() for k in blobs))
 

@@ -51,10 +51,10 @@ def run(args: argparse.Namespace) -> int:
     scene = tutorial_scene(scene_path)
     for warning in scene.warnings:
         print(f"codermind: warning: {warning}", file=sys.stderr)
-    from ..limits import check_reference
-    check_reference(scene_path, scene, args.complexity, args.workers)
     base = outputs.output_base(args.output, scene_path)
     outputs.check_outputs(base, [*ref.OUTPUT_SUFFIXES.values(), outputs.MANIFEST])
+    from ..limits import check_reference
+    check_reference(scene_path, scene, args.complexity, args.workers)
     from codermind_harness.cluster import open_runner
     with contextlib.ExitStack() as stack:     # tiles of rows as units; same image
         with signals.spared_children():
