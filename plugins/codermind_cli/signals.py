@@ -32,6 +32,17 @@ def _raise(signum: int, frame) -> None:
 
 
 @contextlib.contextmanager
+def _handled_by(handler: Callable) -> Iterator[None]:
+    """SIGINT and SIGTERM go to ``handler`` in the body; the previous handlers come back."""
+    previous = {s: signal.signal(s, handler) for s in SIGNALS}
+    try:
+        yield
+    finally:
+        for s, old in previous.items():
+            signal.signal(s, old)
+
+
+@contextlib.contextmanager
 def installed() -> Iterator[None]:
     """SIGINT and SIGTERM raise KeyboardInterrupt in the body (main's first step); the
     previous handlers come back after it, for callers of main() in a longer process."""
@@ -39,12 +50,8 @@ def installed() -> Iterator[None]:
         yield
         return
     _received.clear()
-    previous = {s: signal.signal(s, _raise) for s in SIGNALS}
-    try:
+    with _handled_by(_raise):
         yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
 
 
 def received() -> int | None:
@@ -70,12 +77,8 @@ def stop_requests(what: str = "stopping after the current pass") -> Iterator[Cal
         print(f"\ncodermind: {describe(signum)}: {what} (again to abort without writing)",
               file=sys.stderr, flush=True)
 
-    previous = {s: signal.signal(s, on_signal) for s in SIGNALS}
-    try:
+    with _handled_by(on_signal):
         yield lambda: bool(requested)
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
 
 
 @contextlib.contextmanager
@@ -91,12 +94,8 @@ def deferred() -> Iterator[None]:
         _received.append(signum)
         pending.append(signum)
 
-    previous = {s: signal.signal(s, hold) for s in SIGNALS}
-    try:
+    with _handled_by(hold):
         yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
     if pending:
         raise KeyboardInterrupt
 
