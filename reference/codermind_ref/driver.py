@@ -232,24 +232,36 @@ class _Job:
 _CURRENT: _Job | None = None
 
 
+def _set_current(job: _Job) -> None:
+    global _CURRENT
+    _CURRENT = job
+
+
 def _trace_current(tile):
     return _CURRENT.trace(tile)
 
 
+def _start_method() -> str:
+    """fork where this process has one thread (the job is inherited, no pickling); else
+    forkserver: fork copies only the calling thread, so a lock that another thread of the
+    host holds (an embedding renderer's thread pool) would stay locked in the child."""
+    try:
+        single = len(os.listdir("/proc/self/task")) == 1
+    except OSError:
+        single = False
+    return "fork" if single else "forkserver"
+
+
 def _run(job: _Job, tiles, workers: int):
-    # forked workers inherit the job (no pickling); without fork, or in a daemonic process
-    # (e.g. a cluster's worker), which may not have children, one process does it all
+    # without fork, or in a daemonic process (e.g. a cluster's worker), which may not have
+    # children, one process does it all
     if (workers <= 1 or len(tiles) < 2 or multiprocessing.current_process().daemon
             or "fork" not in multiprocessing.get_all_start_methods()):
         yield from map(job.trace, tiles)
         return
-    global _CURRENT
-    _CURRENT = job
-    try:
-        with multiprocessing.get_context("fork").Pool(workers) as pool:
-            yield from pool.imap(_trace_current, tiles)
-    finally:
-        _CURRENT = None
+    context = multiprocessing.get_context(_start_method())
+    with context.Pool(workers, initializer=_set_current, initargs=(job,)) as pool:
+        yield from pool.imap(_trace_current, tiles)
 
 
 def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds, warnings) -> RenderResult:

@@ -471,3 +471,19 @@ def test_non_finite_radiance_and_black_probes_are_reported(tmp_path):
     assert result.exposure == -1.0
     assert len(result.warnings) == 1 and "E = -1" in result.warnings[0]
     assert "probes.txt:1: auto exposure" in result.warnings[0]
+
+
+def test_workers_are_not_forked_from_a_process_with_other_threads():
+    """fork copies only the calling thread: a lock held by another thread of the host (Dr.Jit's
+    pool, when the command line has imported Mitsuba) stays locked in the child, and the
+    render hangs. With a second thread alive the port starts its workers from a forkserver."""
+    import threading
+    from codermind_ref import driver
+    stop = threading.Event()
+    thread = threading.Thread(target=stop.wait)
+    thread.start()
+    try:
+        assert driver._start_method() == "forkserver"
+    finally:
+        stop.set()
+        thread.join()
