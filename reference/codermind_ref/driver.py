@@ -75,7 +75,8 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
            rect: tuple[int, int, int, int] | None = None, stride: int = 1,
            workers: int | None = None,
            progress: Callable[[int, int], None] | None = None,
-           tile_map: Callable | None = None, ties: str = "first") -> RenderResult:
+           tile_map: Callable | None = None, ties: str = "first",
+           start_method: str = "fork") -> RenderResult:
     """Render ``scene`` as its page's program does.
 
     mode: "strict" (every quirk), "clean" (the quirks of :mod:`codermind_ref.quirks` removed)
@@ -91,7 +92,9 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     job pickles; e.g. on other machines) and yields the results in tile order; it replaces the
     worker processes (``workers`` is then ignored) and the image does not depend on it.
     ties: "first" (the original) or "last", which sphere wins at exactly equal distances
-    (:class:`~codermind_ref.world.World`).
+    (:class:`~codermind_ref.world.World`). start_method: how the worker processes start;
+    "fork" (the job is inherited), or "forkserver" in a host process with threads that hold
+    locks (fork copies only the calling thread, so such a lock stays locked in the child).
     """
     t0 = time.perf_counter()
     quirks = resolve(mode)
@@ -121,7 +124,7 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
     sums = np.zeros((ys.size, xs.size) + job.sample_shape + (3,))
     squares = np.zeros_like(sums) if c > 1 else None
     n_workers = workers or (min(8, len(os.sched_getaffinity(0))) if job.rays > 200_000 else 1)
-    results = tile_map(job, tiles) if tile_map else _run(job, tiles, n_workers)
+    results = tile_map(job, tiles) if tile_map else _run(job, tiles, n_workers, start_method)
     for done, (tile, (s, q)) in enumerate(zip(tiles, results), start=1):
         rows = slice(tile[0], tile[1])
         sums[rows] += s
@@ -241,25 +244,14 @@ def _trace_current(tile):
     return _CURRENT.trace(tile)
 
 
-def _start_method() -> str:
-    """fork where this process has one thread (the job is inherited, no pickling); else
-    forkserver: fork copies only the calling thread, so a lock that another thread of the
-    host holds (an embedding renderer's thread pool) would stay locked in the child."""
-    try:
-        single = len(os.listdir("/proc/self/task")) == 1
-    except OSError:
-        single = False
-    return "fork" if single else "forkserver"
-
-
-def _run(job: _Job, tiles, workers: int):
+def _run(job: _Job, tiles, workers: int, start_method: str):
     # without fork, or in a daemonic process (e.g. a cluster's worker), which may not have
     # children, one process does it all
     if (workers <= 1 or len(tiles) < 2 or multiprocessing.current_process().daemon
             or "fork" not in multiprocessing.get_all_start_methods()):
         yield from map(job.trace, tiles)
         return
-    context = multiprocessing.get_context(_start_method())
+    context = multiprocessing.get_context(start_method)
     with context.Pool(workers, initializer=_set_current, initargs=(job,)) as pool:
         yield from pool.imap(_trace_current, tiles)
 

@@ -10,6 +10,7 @@ import pytest
 import codermind_ref as ref
 from codermind_ref import driver, perlin, png, rng, tga, tonemap, transport
 from codermind_ref.world import World
+from support import ROOT
 from support.port_scenes import uniform_cubemap, write_cubemap, write_scene
 
 
@@ -473,17 +474,12 @@ def test_non_finite_radiance_and_black_probes_are_reported(tmp_path):
     assert "probes.txt:1: auto exposure" in result.warnings[0]
 
 
-def test_workers_are_not_forked_from_a_process_with_other_threads():
-    """fork copies only the calling thread: a lock held by another thread of the host (Dr.Jit's
-    pool, when the command line has imported Mitsuba) stays locked in the child, and the
-    render hangs. With a second thread alive the port starts its workers from a forkserver."""
-    import threading
-    from codermind_ref import driver
-    stop = threading.Event()
-    thread = threading.Thread(target=stop.wait)
-    thread.start()
-    try:
-        assert driver._start_method() == "forkserver"
-    finally:
-        stop.set()
-        thread.join()
+
+def test_workers_started_from_a_forkserver_give_the_forked_image():
+    """The command line starts the port's workers from a forkserver (it has imported Mitsuba,
+    whose threads hold locks a fork would copy locked); the image is the same."""
+    scene = ref.parse_scene(ROOT / "scenes" / "page4.txt")
+    rect = (0, 200, 640, 264)
+    forked = ref.render(scene, rect=rect, workers=2, complexity=1)
+    served = ref.render(scene, rect=rect, workers=2, complexity=1, start_method="forkserver")
+    assert np.array_equal(forked.linear, served.linear)

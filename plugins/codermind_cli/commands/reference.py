@@ -62,7 +62,10 @@ def run(args: argparse.Namespace) -> int:
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
                             progress=None if runner.remote else PortProgress(scene_path.name),
-                            tile_map=runner.tile_map)
+                            tile_map=runner.tile_map,
+                            # this process has imported Mitsuba: fork would copy Dr.Jit's
+                            # pool locked, and a worker could hang
+                            start_method="forkserver")
     for warning in result.warnings[len(scene.warnings):]:     # found while rendering
         print(f"codermind: warning: {warning}", file=sys.stderr)
     try:
