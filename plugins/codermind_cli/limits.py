@@ -20,6 +20,8 @@ import sys
 
 from codermind.errors import CodermindError
 
+from .args import _integer
+
 GIB = float(1 << 30)
 ENV = "CODERMIND_MAX_MEMORY"
 #: Fraction of the total memory allowed by default.
@@ -108,10 +110,7 @@ def check(what: str, need: float, seconds: float | None = None) -> None:
 
 def worker_count(text: str) -> int:
     """``--workers``: an integer in [1, 4 x cores] (argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    value = _integer(text)
     cap = WORKERS_PER_CORE * cores()
     if not 1 <= value <= cap:
         raise argparse.ArgumentTypeError(f"must be in [1, {cap}] ({WORKERS_PER_CORE} per "
@@ -135,13 +134,11 @@ def check_render(scene_path, width: int, height: int, spp: int, runs: int = 1,
 def check_reference(scene_path, scene, complexity: int | None = None,
                     workers: int | None = None) -> None:
     """``codermind reference`` (and the port's side of ``compare``)."""
-    from codermind_ref.driver import TILE_RAYS
+    from codermind_ref.driver import tile_shape
     per_pixel = 1 if scene.page == 1 else 4
     c = int(complexity or scene.complexity) if scene.page == 4 else 1
     samples = scene.width * scene.height * per_pixel
-    per_row = scene.width * per_pixel
-    reps = max(1, min(c, TILE_RAYS // per_row))
-    rows = max(1, TILE_RAYS // (per_row * reps)) if reps == c else 1
+    rows, reps = tile_shape(scene.width * per_pixel, c)
     tiles = math.ceil(scene.height / rows) * math.ceil(c / reps)
     n = workers or 1
     need = BASE + REFERENCE_PER_SAMPLE * samples + PER_TILE * tiles + (n - 1) * (100 << 20)

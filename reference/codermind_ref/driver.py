@@ -28,6 +28,14 @@ TILE_RAYS = 1 << 16
 PROBES = 16
 
 
+def tile_shape(per_row: int, complexity: int) -> tuple[int, int]:
+    """(rows, repeats) of a tile of at most about TILE_RAYS rays: whole repeats of several
+    rows where a row's repeats fit, else part of one row's repeats."""
+    reps = max(1, min(complexity, TILE_RAYS // per_row))
+    rows = max(1, TILE_RAYS // (per_row * reps)) if reps == complexity else 1
+    return rows, reps
+
+
 @dataclass
 class RenderResult:
     """What :func:`render` returns. Image arrays cover the rendered grid (``xs`` by ``ys``,
@@ -198,9 +206,8 @@ class _Job:
 
     def tiles(self) -> list[tuple[int, int, int, int]]:
         """(row start, row end, repeat start, repeat end) over indices into ys / repeats."""
-        per_row = self.xs.size * (1 if self.scene.page == 1 else 4)
-        reps = max(1, min(self.complexity, TILE_RAYS // per_row))
-        rows = max(1, TILE_RAYS // (per_row * reps)) if reps == self.complexity else 1
+        rows, reps = tile_shape(self.xs.size * (1 if self.scene.page == 1 else 4),
+                                self.complexity)
         return [(r, min(r + rows, self.ys.size), c, min(c + reps, self.complexity))
                 for r in range(0, self.ys.size, rows) for c in range(0, self.complexity, reps)]
 
