@@ -40,6 +40,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cluster", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
                         "(N worker processes here); default: this machine")
+    p.add_argument("--allow-files", metavar="DIR", action="append", default=[],
+                   help="with --cluster: files the scene names (cube-map faces) travel to the "
+                        "workers only from the scene's folder; this allows DIR too (repeatable)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from codermind_harness.cluster import open_runner
     with contextlib.ExitStack() as stack:     # tiles of rows as units; same image
         with signals.spared_children():
-            runner = stack.enter_context(open_runner(args.cluster))
+            runner = stack.enter_context(open_runner(args.cluster, allow=args.allow_files))
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
                             progress=None if runner.remote else PortProgress(scene_path.name),
