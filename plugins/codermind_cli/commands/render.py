@@ -85,6 +85,12 @@ def run(args: argparse.Namespace) -> int:
         raise CodermindError(f"{scene_path}: the scene has no sensor to render from")
     if scene.integrator() is None:
         raise CodermindError(f"{scene_path}: the scene has no integrator")
+    from codermind.scene import non_finite_parameters
+    bad = non_finite_parameters(scene)
+    if bad:
+        raise CodermindError(f"{scene_path}: parameter{'s' if len(bad) > 1 else ''} "
+                             f"{', '.join(bad[:3])}{' ...' if len(bad) > 3 else ''} not finite; "
+                             "nothing was rendered")
     import drjit as dr
     threads = dr.thread_count()
     if args.deterministic:
@@ -125,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
+    _warn_non_finite(scene_path, result.image)
     exr, png = outputs.write_set(base, {
         ".exr": lambda path: write_exr(path, result.image, result.channel_names),
         ".png": lambda path: write_png_srgb(path, result.image)})
@@ -143,6 +150,7 @@ def _finish_tutorial(result, base: Path) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
+    _warn_non_finite(base, result.linear)
     paths = outputs.write_set(base, output_writers(result))
     names = ", ".join(str(p) for p in paths)
     exposure = "" if result.exposure is None else \
@@ -155,3 +163,12 @@ def _finish_tutorial(result, base: Path) -> int:
     print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
           f"{result.seconds:.2f} s)")
     return 0
+
+
+def _warn_non_finite(source, image) -> None:
+    """One warning line when the rendered film holds NaN or infinite values."""
+    import numpy as np
+    bad = int(np.count_nonzero(~np.isfinite(image)))
+    if bad:
+        print(f"codermind: warning: {source}: {bad} of {image.size} film values are not finite "
+              "(NaN or infinite); they are written as they are", file=sys.stderr)
