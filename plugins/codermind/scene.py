@@ -58,5 +58,5 @@ def non_finite_parameters(scene: mi.Scene) -> list[str]:
                 key = f"'{rest}' of a plugin without an id"
             else:
                 key = f"'{key}'"
-            bad.append(f"{key} = {first:g}")
+            bad.append(f"{key} ({first:g})")
     return bad

@@ -88,9 +88,8 @@ def run(args: argparse.Namespace) -> int:
     from codermind.scene import non_finite_parameters
     bad = non_finite_parameters(scene)
     if bad:
-        raise CodermindError(f"{scene_path}: parameter{'s' if len(bad) > 1 else ''} "
-                             f"{', '.join(bad[:3])}{' ...' if len(bad) > 3 else ''} not finite; "
-                             "nothing was rendered")
+        raise CodermindError(f"{scene_path}: not finite: {', '.join(bad[:3])}"
+                             f"{' ...' if len(bad) > 3 else ''}; nothing was rendered")
     import drjit as dr
     threads = dr.thread_count()
     if args.deterministic:
