@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .. import outputs, signals
+from .. import limits, outputs, signals
 from ..args import define, exposure as exposure_option, positive_int, seed
 
 NAME = "render"
@@ -53,6 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--deterministic", action="store_true",
                    help="bit-identical output for a given seed: runs Dr.Jit on one thread, since "
                         "parallel film accumulation adds samples in a varying order")
+    limits.add_max_memory(p)
 
 
 #: Every file a render may write, checked before it starts.
@@ -98,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
         dr.set_thread_count(1)
     spp = args.spp or scene_spp(scene)
     from ..limits import check_render
-    check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp)
+    check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp,
+                 max_memory=args.max_memory)
 
     if settings is not None:
         from codermind.tutorial import render as tutorial_render
