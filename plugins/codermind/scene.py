@@ -38,3 +38,25 @@ def attach_emitters(scene: mi.Scene) -> None:
         attach = getattr(emitter, "attach_scene", None)
         if callable(attach):
             attach(scene)
+
+
+def non_finite_parameters(scene: mi.Scene) -> list[str]:
+    """The scene's parameters (``mi.traverse`` keys) that hold a NaN or an infinity: such a
+    value makes every pixel it reaches NaN, so a render would only waste its time."""
+    import numpy as np
+    params = mi.traverse(scene)
+    bad = []
+    for key in params.keys():
+        try:
+            value = np.asarray(params[key], dtype=np.float64)
+        except (TypeError, ValueError):         # strings, objects
+            continue
+        if value.size and not np.isfinite(value).all():
+            first = value.ravel()[~np.isfinite(value.ravel())][0]
+            owner, _, rest = key.partition(".")
+            if owner.startswith("object_") and rest:    # a plugin without an id
+                key = f"'{rest}' of a plugin without an id"
+            else:
+                key = f"'{key}'"
+            bad.append(f"{key} ({first:g})")
+    return bad

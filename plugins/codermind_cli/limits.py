@@ -6,8 +6,8 @@ Memory: the estimate of each command (measured, with /usr/bin/time, on renders o
 pixels a side: about 250 MiB plus 140 bytes per film pixel for ``render``, 150 per sub-sample
 for ``reference``, plus the pass or tile lists, which grow with ``--spp`` and
 ``--complexity``) is compared with the allowed memory: 80 % of the machine's total
-(``/proc/meminfo``), or ``CODERMIND_MAX_MEMORY`` GiB where that is set (it may exceed the
-total, for a machine with swap). Time: estimated from a measured rate: a warning above 10
+(``/proc/meminfo``), or ``--max-memory GiB`` (else ``CODERMIND_MAX_MEMORY``) where that is
+set (it may exceed the total, for a machine with swap). Time: estimated from a measured rate: a warning above 10
 minutes, a refusal above a year. Workers: at most 4 per core (``--workers``).
 """
 
@@ -67,8 +67,11 @@ def total_memory() -> int:
         return 8 << 30
 
 
-def memory_limit() -> tuple[float, str]:
-    """(bytes allowed, where the limit comes from)."""
+def memory_limit(option: float | None = None) -> tuple[float, str]:
+    """(bytes allowed, where the limit comes from): ``--max-memory`` (``option``, GiB), else
+    ``CODERMIND_MAX_MEMORY``, else 80 % of the machine's total."""
+    if option is not None:
+        return option * GIB, f"--max-memory {option:g}"
     text = os.environ.get(ENV)
     if text:
         try:
@@ -80,7 +83,7 @@ def memory_limit() -> tuple[float, str]:
         return value * GIB, f"{ENV}={text}"
     total = total_memory()
     return DEFAULT_FRACTION * total, (f"{DEFAULT_FRACTION:.0%} of this machine's "
-                                       f"{total / GIB:.1f} GiB; set {ENV}=GiB to allow more")
+                                       f"{total / GIB:.1f} GiB; --max-memory GiB allows more")
 
 
 def duration(seconds: float) -> str:
@@ -91,10 +94,11 @@ def duration(seconds: float) -> str:
     return f"{seconds:.3g} s"
 
 
-def check(what: str, need: float, seconds: float | None = None) -> None:
-    """Refuse ``what`` if ``need`` bytes exceed the allowed memory; warn if ``seconds`` is
-    long."""
-    limit, source = memory_limit()
+def check(what: str, need: float, seconds: float | None = None,
+          max_memory: float | None = None) -> None:
+    """Refuse ``what`` if ``need`` bytes exceed the allowed memory (``max_memory`` GiB, see
+    :func:`memory_limit`); warn if ``seconds`` is long."""
+    limit, source = memory_limit(max_memory)
     if need > limit:
         raise CodermindError(f"{what} needs about {need / GIB:.3g} GiB, more than the "
                              f"{limit / GIB:.3g} GiB allowed ({source}); nothing was started")
@@ -119,7 +123,7 @@ def worker_count(text: str) -> int:
 
 
 def check_render(scene_path, width: int, height: int, spp: int, runs: int = 1,
-                 pass_spp: int | None = None) -> None:
+                 pass_spp: int | None = None, max_memory: float | None = None) -> None:
     """``codermind render``: a film of ``width`` x ``height`` pixels, ``spp`` samples,
     ``runs`` renders (one per light when a tutorial scene sums its lights)."""
     from codermind.passes import LANE_BUDGET
@@ -128,11 +132,12 @@ def check_render(scene_path, width: int, height: int, spp: int, runs: int = 1,
     passes = math.ceil(spp / per)
     need = BASE + RENDER_PER_PIXEL * pixels + PER_PASS * passes
     seconds = pixels * spp * runs / RENDER_RATE
-    check(f"{scene_path}: rendering {width}x{height} pixels at {spp} spp", need, seconds)
+    check(f"{scene_path}: rendering {width}x{height} pixels at {spp} spp", need, seconds,
+          max_memory)
 
 
 def check_reference(scene_path, scene, complexity: int | None = None,
-                    workers: int | None = None) -> None:
+                    workers: int | None = None, max_memory: float | None = None) -> None:
     """``codermind reference`` (and the port's side of ``compare``)."""
     from codermind_ref.driver import tile_shape
     per_pixel = 1 if scene.page == 1 else 4
@@ -143,4 +148,13 @@ def check_reference(scene_path, scene, complexity: int | None = None,
     n = workers or 1
     need = BASE + REFERENCE_PER_SAMPLE * samples + PER_TILE * tiles + (n - 1) * (100 << 20)
     seconds = samples * c / (REFERENCE_RATE * min(n, cores()))
-    check(f"{scene_path}: {scene.width}x{scene.height} pixels at complexity {c}", need, seconds)
+    check(f"{scene_path}: {scene.width}x{scene.height} pixels at complexity {c}", need, seconds,
+          max_memory)
+
+
+def add_max_memory(p: argparse.ArgumentParser) -> None:
+    """The ``--max-memory GiB`` option of the commands whose requests are checked here."""
+    from .args import positive_float
+    p.add_argument("--max-memory", type=positive_float, metavar="GIB",
+                   help=f"memory the request may need, GiB (default: ${ENV}, else 80 %% of "
+                        "this machine's total); more than the total is allowed, for swap")

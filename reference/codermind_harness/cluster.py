@@ -24,16 +24,24 @@ as without a cluster:
   submitted at once; the client assembles each sweep from its points' results).
 
 A worker that dies mid-task has its task re-run by the scheduler; since a task's result
-depends only on its inputs, the outputs are unchanged.
+depends only on its inputs, the outputs are unchanged. With no worker left, the client waits
+``CODERMIND_CLUSTER_WAIT`` seconds (default :data:`NO_WORKER_WAIT_S`) for one to join, then
+stops in one line; a lost scheduler is one line too (:class:`ClusterError`), and
+``distributed``'s own log lines are kept off the terminal while the cluster is open.
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
+import math
+import os
 import re
 import sys
 import threading
+import time
 import warnings
+from concurrent.futures import CancelledError
 from typing import Callable, Iterable, Iterator
 
 from codermind.errors import CodermindError
@@ -45,6 +53,11 @@ from .sides import HarnessError
 _LOCAL = re.compile(r"local:(\d+)")
 _REMOTE = re.compile(r"(tcp|tls|ucx)://[^\s/:]+:\d+")
 CONNECT_TIMEOUT_S = 15
+#: Seconds the client waits, with no worker on the cluster, before it gives up.
+NO_WORKER_WAIT_S = 60.0
+WAIT_ENV = "CODERMIND_CLUSTER_WAIT"
+#: Seconds between looks at the cluster while a task's result is awaited.
+_POLL_S = 1.0
 
 
 class ClusterError(HarnessError, CodermindError):
@@ -95,14 +108,39 @@ def _identity(x):
     return x
 
 
+def no_worker_wait() -> float:
+    """Seconds to wait for a worker when none is left (``CODERMIND_CLUSTER_WAIT``)."""
+    text = os.environ.get(WAIT_ENV)
+    if not text:
+        return NO_WORKER_WAIT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 < value < math.inf:
+        raise ClusterError(f"{WAIT_ENV}={text!r}: expected a number of seconds > 0")
+    return value
+
+
+def _lost_scheduler(error: BaseException) -> bool:
+    """Whether a result's exception is the connection to the scheduler failing, not the
+    task's own error (which the worker raised and the client re-raises as it was)."""
+    from distributed.comm.core import CommClosedError
+    return isinstance(error, (CommClosedError, CancelledError, ConnectionError))
+
+
 class Cluster(RemoteRunner):
     """A connected ``distributed.Client`` with one progress line over every task submitted."""
 
-    def __init__(self, address: str, progress: bool = True):
-        super().__init__()
+    def __init__(self, address: str, progress: bool = True,
+                 allow: Iterable[str | os.PathLike] = ()):
+        super().__init__(allow)
         kind, value = parse_address(address)
+        self.wait = no_worker_wait()
         import distributed      # heavy and optional (the cluster extra): only with --cluster
         self.address, self._cluster = address, None
+        self.failed = False     #: the cluster failed (lost scheduler, no worker): no summary
+        self._quiet = _Quiet()
         try:
             if kind == "local":
                 self._cluster = distributed.LocalCluster(
@@ -114,6 +152,9 @@ class Cluster(RemoteRunner):
         except (OSError, TimeoutError) as e:
             self.close()
             raise ClusterError(f"--cluster {address}: cannot connect: {e}") from None
+        except BaseException:
+            self.close()
+            raise
         self._lock = threading.Lock()
         self.submitted = self.done = 0
         self._bar = PortProgress("cluster") if progress else None
@@ -123,8 +164,11 @@ class Cluster(RemoteRunner):
             obj = getattr(self, part, None)
             if obj is not None:
                 with contextlib.suppress(Exception):
-                    obj.close()
+                    obj.close(timeout=5) if part == "client" else obj.close()
                 setattr(self, part, None)
+        quiet = getattr(self, "_quiet", None)
+        if quiet is not None and not getattr(self, "failed", False):
+            quiet.restore()
 
     @property
     def workers(self) -> int:
@@ -138,10 +182,12 @@ class Cluster(RemoteRunner):
             f.add_done_callback(self._finished)
         return futures
 
-    def _finished(self, _future) -> None:
+    def _finished(self, future) -> None:
+        if future.status != "finished":     # cancelled or lost: not progress
+            return
         with self._lock:
             self.done += 1
-            if self._bar:
+            if self._bar and not self.failed:
                 self._bar(self.done, self.submitted)
 
     def submit_all(self, fn: Callable, calls: Iterable[tuple]) -> list:
@@ -149,8 +195,43 @@ class Cluster(RemoteRunner):
 
     def results(self, handles: list) -> Iterator:
         for f in handles:
-            yield f.result()
+            yield self._result(f)
             f.release()
+
+    def _result(self, future):
+        """``future``'s result; ClusterError (one line) when the scheduler is lost or no worker
+        is left for ``self.wait`` seconds. A task's own exception is raised as it is."""
+        alone_since = None
+        while True:
+            try:
+                return future.result(timeout=_POLL_S)
+            except TimeoutError:
+                pass
+            except Exception as e:
+                if future.status == "error" or not _lost_scheduler(e):
+                    raise
+                self._fail(f"lost the scheduler ({self._tally()})")
+            try:
+                workers = self.workers
+            except Exception:               # the scheduler does not answer
+                self._fail(f"lost the scheduler ({self._tally()})")
+            if workers:
+                alone_since = None
+                continue
+            now = time.monotonic()
+            if alone_since is None:
+                alone_since = now
+                print(f"cluster: no worker on {self.address}; waiting up to {self.wait:g} s for "
+                      f"one ({WAIT_ENV})", file=sys.stderr, flush=True)
+            elif now - alone_since >= self.wait:
+                self._fail(f"no worker left for {self.wait:g} s ({self._tally()})")
+
+    def _tally(self) -> str:
+        return f"{self.done}/{self.submitted} tasks done"
+
+    def _fail(self, what: str):
+        self.failed = True
+        raise ClusterError(f"--cluster {self.address}: {what}")
 
     def share(self, obj):
         """A future of ``obj`` for the arguments of many tasks: sent to the cluster once (as
@@ -164,18 +245,40 @@ class Cluster(RemoteRunner):
         shared.release()
 
 
+class _Quiet:
+    """``distributed``'s loggers held above CRITICAL while a cluster is open, and for the rest
+    of the process once it failed (the client's reconnect loop logs on after ``close``): a
+    lost scheduler or worker is reported by the command in one line, not by log records."""
+
+    ROOTS = ("distributed", "tornado", "asyncio")
+
+    def __init__(self) -> None:
+        names = [n for n in logging.root.manager.loggerDict
+                 if n.split(".")[0] in self.ROOTS] + list(self.ROOTS)
+        self.levels = {n: logging.getLogger(n).level for n in set(names)}
+        for n in self.levels:
+            logging.getLogger(n).setLevel(logging.CRITICAL + 1)
+
+    def restore(self) -> None:
+        for n, level in self.levels.items():
+            logging.getLogger(n).setLevel(level)
+        self.levels = {}
+
+
 @contextlib.contextmanager
-def open_runner(address: str | None, progress: bool = True) -> Iterator[Runner]:
+def open_runner(address: str | None, progress: bool = True,
+                allow: Iterable[str | os.PathLike] = ()) -> Iterator[Runner]:
     """The runner of a command's ``--cluster``: ``address``'s :class:`Cluster` for the
-    duration of the command, or this process's :class:`Runner` (None: nothing imported)."""
+    duration of the command, or this process's :class:`Runner` (None: nothing imported).
+    ``allow``: folders besides each scene's own whose files may travel to the workers."""
     if address is None:
         yield Runner()
         return
-    cluster = Cluster(address, progress)
+    cluster = Cluster(address, progress, allow)
     try:
         yield cluster
     finally:
         cluster.close()
-        if progress and cluster.submitted:
+        if progress and cluster.submitted and not cluster.failed:
             print(f"cluster: {cluster.done}/{cluster.submitted} tasks on {address}",
                   file=sys.stderr, flush=True)

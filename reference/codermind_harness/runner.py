@@ -22,7 +22,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
-from .bundle import Bundle
+from .bundle import Bundle, check_inside, roots
 
 #: Port tiles (of up to ``codermind_ref.driver.TILE_RAYS`` rays) per task: a page-4 tile
 #: already costs several times a task's overhead (benchmarks/bench_cluster.py, docs/cluster.md).
@@ -92,8 +92,10 @@ class RemoteRunner(Runner):
 
     remote = True
 
-    def __init__(self) -> None:
+    def __init__(self, allow: Iterable[str | os.PathLike] = ()) -> None:
         self._bundles: dict = {}
+        #: folders besides a scene's own whose files may travel (``--allow-files``)
+        self.allow = tuple(allow)
 
     def share(self, obj):
         """``obj`` for the arguments of many units (here: sent with each)."""
@@ -104,7 +106,13 @@ class RemoteRunner(Runner):
 
     def tile_map(self, job, tiles: list, per_task: int = TILES_PER_TASK) -> Iterator:
         """``codermind_ref.render``'s ``tile_map``: the job shared once, groups of
-        ``per_task`` consecutive tiles per unit, the tiles' results in tile order."""
+        ``per_task`` consecutive tiles per unit, the tiles' results in tile order. The job's
+        cube-map faces must lie inside the scene's folder or :attr:`allow`."""
+        scene = job.scene
+        allowed = roots(Path(scene.path).parent, self.allow)
+        for face, path in scene.cubemap.paths.items():
+            line = scene.line_of("Scene", f"Cubemap.{face}")
+            check_inside(path, allowed, f"{scene.path}:{line}")
         shared = self.share(job)
         groups = [tiles[i:i + per_task] for i in range(0, len(tiles), per_task)]
         try:
@@ -118,15 +126,15 @@ class RemoteRunner(Runner):
         path = Path(xml).resolve()
         key = (path, path.stat().st_mtime_ns)
         if key not in self._bundles:
-            self._bundles[key] = Bundle.of(path)
+            self._bundles[key] = Bundle.of(path, self.allow)
         return self._bundles[key]
 
 
 class PoolRunner(RemoteRunner):
     """``workers`` local processes (started fresh: a fork would copy Dr.Jit's threads)."""
 
-    def __init__(self, workers: int) -> None:
-        super().__init__()
+    def __init__(self, workers: int, allow: Iterable[str | os.PathLike] = ()) -> None:
+        super().__init__(allow)
         self.address = f"pool:{workers}"
         self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
 

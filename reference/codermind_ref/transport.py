@@ -90,9 +90,11 @@ def fresnel(n1: np.ndarray, n2: np.ndarray, cos_i: np.ndarray) -> tuple[np.ndarr
 
 
 def _decide(u: np.ndarray, rf: np.ndarray, tr: np.ndarray) -> np.ndarray:
-    some = rf + tr > 0.0
-    return np.where(some & (u <= rf), REFLECT,
-                    np.where(some & (u <= rf + tr), REFRACT, DIFFUSE)).astype(np.int8)
+    # a negative index gives NaN weights: they compare false, a diffuse event, as in C
+    with np.errstate(invalid="ignore"):
+        some = rf + tr > 0.0
+        return np.where(some & (u <= rf), REFLECT,
+                        np.where(some & (u <= rf + tr), REFRACT, DIFFUSE)).astype(np.int8)
 
 
 def refracted(d: np.ndarray, n: np.ndarray, cos_i: np.ndarray, cos_t: np.ndarray,

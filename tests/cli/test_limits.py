@@ -93,3 +93,13 @@ def test_cube_face_header_checked_before_reading(tmp_path):
     face.write_bytes(bytes(header) + b"\0" * 30)
     with pytest.raises(TgaError, match="truncated"):
         read_face(face)
+
+
+def test_max_memory_option_lowers_and_raises_the_limit(tmp_path):
+    scene = tmp_path / "s.txt"
+    scene.write_text(SMALL % ("1", 8, 8, ""))
+    r = run_cli("reference", scene, "-o", tmp_path / "o", "--max-memory", "0.01", cwd=tmp_path)
+    one_line_refusal(r, "allowed (--max-memory 0.01)")
+    r = run_cli("reference", scene, "-o", tmp_path / "o", "--max-memory", "4", cwd=tmp_path,
+                env={"CODERMIND_MAX_MEMORY": "0.01"})
+    assert r.returncode == 0, r.stderr          # the option wins over the environment

@@ -87,6 +87,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cluster", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
                         "(N worker processes here); default: this machine")
+    p.add_argument("--allow-files", metavar="DIR", action="append", default=[],
+                   help="with --cluster: files the scene names (cube-map faces) travel to the "
+                        "workers only from each SCENE's folder; this allows DIR too (repeatable)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -117,7 +120,8 @@ def run(args: argparse.Namespace) -> int:
                   noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds,
                   reference=None if args.reference is None else Path(args.reference))
     try:
-        with open_runner(args.cluster, progress=not args.quiet) as runner:
+        allow = [Path(s).parent for s in args.scenes] + args.allow_files
+        with open_runner(args.cluster, progress=not args.quiet, allow=allow) as runner:
             records, status = compare(args.scenes, opt, args.variant, runner)
     except HarnessError as e:
         raise CodermindError(str(e)) from None

@@ -12,7 +12,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from .. import outputs, signals
+from .. import limits, outputs, signals
 from ..args import positive_float, positive_int, seed, tutorial_scene
 from ..limits import worker_count
 
@@ -40,7 +40,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cluster", metavar="ADDRESS",
                    help="run on a Dask cluster: tcp://HOST:PORT (a `dask scheduler`) or local:N "
                         "(N worker processes here); default: this machine")
-
+    p.add_argument("--allow-files", metavar="DIR", action="append", default=[],
+                   help="with --cluster: files the scene names (cube-map faces) travel to the "
+                        "workers only from the scene's folder; this allows DIR too (repeatable)")
+    limits.add_max_memory(p)
 
 def run(args: argparse.Namespace) -> int:
     from codermind.errors import CodermindError
@@ -54,11 +57,11 @@ def run(args: argparse.Namespace) -> int:
     base = outputs.output_base(args.output, scene_path)
     outputs.check_outputs(base, [*ref.OUTPUT_SUFFIXES.values(), outputs.MANIFEST])
     from ..limits import check_reference
-    check_reference(scene_path, scene, args.complexity, args.workers)
+    check_reference(scene_path, scene, args.complexity, args.workers, args.max_memory)
     from codermind_harness.cluster import open_runner
     with contextlib.ExitStack() as stack:     # tiles of rows as units; same image
         with signals.spared_children():
-            runner = stack.enter_context(open_runner(args.cluster))
+            runner = stack.enter_context(open_runner(args.cluster, allow=args.allow_files))
         result = ref.render(scene, args.mode, args.seed, args.complexity,
                             exposure=args.exposure, workers=args.workers,
                             progress=None if runner.remote else PortProgress(scene_path.name),

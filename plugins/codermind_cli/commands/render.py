@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .. import outputs, signals
+from .. import limits, outputs, signals
 from ..args import define, exposure as exposure_option, positive_int, seed
 
 NAME = "render"
@@ -53,6 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--deterministic", action="store_true",
                    help="bit-identical output for a given seed: runs Dr.Jit on one thread, since "
                         "parallel film accumulation adds samples in a varying order")
+    limits.add_max_memory(p)
 
 
 #: Every file a render may write, checked before it starts.
@@ -85,6 +86,11 @@ def run(args: argparse.Namespace) -> int:
         raise CodermindError(f"{scene_path}: the scene has no sensor to render from")
     if scene.integrator() is None:
         raise CodermindError(f"{scene_path}: the scene has no integrator")
+    from codermind.scene import non_finite_parameters
+    bad = non_finite_parameters(scene)
+    if bad:
+        raise CodermindError(f"{scene_path}: not finite: {', '.join(bad[:3])}"
+                             f"{' ...' if len(bad) > 3 else ''}; nothing was rendered")
     import drjit as dr
     threads = dr.thread_count()
     if args.deterministic:
@@ -93,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
         dr.set_thread_count(1)
     spp = args.spp or scene_spp(scene)
     from ..limits import check_render
-    check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp)
+    check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp,
+                 max_memory=args.max_memory)
 
     if settings is not None:
         from codermind.tutorial import render as tutorial_render
@@ -125,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
+    _warn_non_finite(scene_path, result.image)
     exr, png = outputs.write_set(base, {
         ".exr": lambda path: write_exr(path, result.image, result.channel_names),
         ".png": lambda path: write_png_srgb(path, result.image)})
@@ -143,6 +151,7 @@ def _finish_tutorial(result, base: Path) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
+    _warn_non_finite(base, result.linear)
     paths = outputs.write_set(base, output_writers(result))
     names = ", ".join(str(p) for p in paths)
     exposure = "" if result.exposure is None else \
@@ -155,3 +164,12 @@ def _finish_tutorial(result, base: Path) -> int:
     print(f"wrote {names} (page-{result.settings.page} program, {result.spp} spp{exposure}, "
           f"{result.seconds:.2f} s)")
     return 0
+
+
+def _warn_non_finite(source, image) -> None:
+    """One warning line when the rendered film holds NaN or infinite values."""
+    import numpy as np
+    bad = int(np.count_nonzero(~np.isfinite(image)))
+    if bad:
+        print(f"codermind: warning: {source}: {bad} of {image.size} film values are not finite "
+              "(NaN or infinite); they are written as they are", file=sys.stderr)
