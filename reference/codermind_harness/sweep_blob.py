@@ -20,7 +20,7 @@ import numpy as np
 
 from codermind_ref.blob import field as zone_f
 
-from .stability import Plan, Series, SweepResult, finite_check_counts, finite_counts
+from .sweep_result import Plan, Series, SweepResult, finite_check_counts, finite_counts
 
 CRITICAL = 2.0 * math.sqrt(2.0)          # D / R where the neck closes
 

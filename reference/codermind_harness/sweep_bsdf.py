@@ -12,8 +12,8 @@ from codermind.variants import set_variant
 from codermind_ref.transport import fresnel as port_fresnel
 
 from ._mitsuba import load_error
-from .stability import (Plan, Series, SweepResult, finite_check, finite_check_counts,
-                        finite_counts, generator, states)
+from .sweep_result import (Plan, Series, SweepResult, finite_check, finite_check_counts,
+                           finite_counts, generator, states)
 
 # -- blinnphong ------------------------------------------------------------------------------
 

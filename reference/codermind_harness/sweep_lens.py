@@ -16,8 +16,8 @@ import numpy as np
 from codermind.variants import set_variant
 
 from ._mitsuba import load_error
-from .stability import (Plan, Series, SweepResult, finite_check_counts, finite_counts,
-                        first_crossing)
+from .sweep_result import (Plan, Series, SweepResult, finite_check_counts, finite_counts,
+                           first_crossing)
 
 W, H, FOV, FOCUS = 64, 48, 60.0, 100.0
 LIMIT_PX = 0.1

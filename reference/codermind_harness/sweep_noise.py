@@ -13,8 +13,8 @@ import numpy as np
 from codermind.variants import set_variant
 from codermind_ref.perlin import noise
 
-from .stability import (Plan, Series, SweepResult, finite_check_counts, finite_counts,
-                        first_crossing, generator, states)
+from .sweep_result import (Plan, Series, SweepResult, finite_check_counts, finite_counts,
+                           first_crossing, generator, states)
 
 LIMIT = 1e-2
 

@@ -21,7 +21,7 @@ import codermind_ref as ref
 from codermind_ref import tonemap
 from codermind_ref.scene import Tonemap
 
-from .stability import Plan, Series, SweepResult
+from .sweep_result import Plan, Series, SweepResult
 
 SETS = {                        # (Midpoint, Power, Black)
     "default 0.6/3/0.1": (0.6, 3.0, 0.1),

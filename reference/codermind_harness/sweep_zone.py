@@ -17,7 +17,7 @@ import numpy as np
 from codermind_ref import blob as port_blob
 
 from . import zone_exact
-from .stability import Plan, Series, SweepResult
+from .sweep_result import Plan, Series, SweepResult
 
 CENTERS = np.array([[160.0, 290.0, 320.0], [400.0, 290.0, 480.0], [250.0, 140.0, 400.0]])
 RADIUS = 80.0
