@@ -2,8 +2,8 @@
 another render of it (``--against OTHER.xml``, ``--reference IMAGE.exr``).
 
 Evidence: Mitsuba's built-ins agreeing with each other (``scenes/default.xml`` through
-``path`` and through ``volpath``, which have the same expectation in a scene without media)
-must pass, with the per-pixel z spread about 1 (the variances from the pass means are
+``path`` and through ``volpath``, which have the same expectation in a scene without media),
+and our ``tutorialpath`` agreeing with ``path`` there, must pass, with the per-pixel z spread about 1 (the variances from the pass means are
 right); injected errors of our own making (``scenes/default.xml`` with its point light 3 %
 brighter, which lights two thirds of the image) must fail; ``scenes/user/room.xml`` (the
 project's plugins, Mitsuba's default Gaussian film filter) against itself with another seed
@@ -46,10 +46,13 @@ def reference(scene: Path, out: Path, spp: int, seed: int, defines: dict | None 
     return out.with_suffix(".exr")
 
 
-def test_default_scene_through_path_and_volpath_passes(llvm, tmp_path):
-    """Mitsuba built-ins: the same scene through two integrators of the same expectation."""
+@pytest.mark.parametrize("integrator", ["volpath", "tutorialpath"])
+def test_default_scene_through_path_and_another_integrator_passes(llvm, tmp_path, integrator):
+    """The same scene through two integrators of the same expectation: Mitsuba's ``path``
+    and ``volpath`` (built-ins, no media), and ``path`` and our ``tutorialpath`` (clean:
+    path's expectation; it adds the point light at every hit instead of picking a light)."""
     scene = default_copy(tmp_path, "path.xml")
-    other = default_copy(tmp_path, "volpath.xml", integrator="volpath")
+    other = default_copy(tmp_path, f"{integrator}.xml", integrator=integrator)
     rec = compare(tmp_path / "out", scene, against=other, spp=32)
     assert rec["passed"], rec["failures"]
     z = rec["z_test"]
