@@ -167,3 +167,15 @@ def test_the_record_is_json_with_the_tables_columns(llvm, tmp_path):
     table = format_table([back])
     assert table.split("\n")[0].split()[:3] == ["scene", "against", "pixels"]
     assert "b.xml" in table and ("pass" if rec["passed"] else "FAIL") in table
+
+
+def test_a_rect_and_stride_pick_film_pixels(llvm, tmp_path):
+    """--rect crops both films (y up, as for tutorial scenes), --stride takes every K-th
+    pixel; of a 48 x 36 film, the 16 x 12 pixels x = 8, 10, .., 38 and y = 0, 2, .., 22."""
+    scene = default_copy(tmp_path, "path.xml", width=48, height=36)
+    other = default_copy(tmp_path, "volpath.xml", width=48, height=36, integrator="volpath")
+    rec = compare(tmp_path / "out", scene, against=other, spp=16, rect=(8, 0, 40, 24),
+                  stride=2)
+    assert rec["passed"], rec["failures"]
+    assert rec["pixels"] == 16 * 12 and rec["rect"] == [8, 0, 40, 24] and rec["stride"] == 2
+    assert rec["z_test"]["tests"] == 16 * 12 * 3
