@@ -130,20 +130,27 @@ def run(args: argparse.Namespace) -> int:
         print("codermind: interrupted before the first pass finished; nothing written",
               file=sys.stderr)
         return 130
-    writers = {".exr": lambda path: write_exr(path, result.image, result.channel_names),
-               ".png": lambda path: write_png_srgb(path, result.image)}
-    if getattr(result, "variance", None) is not None:
-        writers[".variance.exr"] = lambda path: write_exr(path, result.variance)
-    paths = outputs.write_set(base, writers)
-    exr, png = paths[:2]
+    exr, png = outputs.write_set(base, {
+        ".exr": lambda path: write_exr(path, result.image, result.channel_names),
+        ".png": lambda path: write_png_srgb(path, result.image),
+        **_variance_writer(result)})[:2]
     if result.interrupted:
         print(f"codermind: interrupted ({signals.describe(signals.received())}): wrote the "
               f"{result.spp} of {result.spp_requested} spp finished to {exr} and {png}",
               file=sys.stderr)
         return 130
-    print(f"wrote {', '.join(str(p) for p in paths[:-1])} and {paths[-1]} ({result.spp} spp, "
-          f"{result.seconds:.2f} s)")
+    also = "" if getattr(result, "variance", None) is None else \
+        f", {base.parent / (base.name + '.variance.exr')}"
+    print(f"wrote {exr}{also} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
     return 0
+
+
+def _variance_writer(result) -> dict:
+    """``{".variance.exr": writer}`` where the render estimated its variance, else {}."""
+    if getattr(result, "variance", None) is None:
+        return {}
+    from codermind.imageio import write_exr
+    return {".variance.exr": lambda path: write_exr(path, result.variance)}
 
 
 def _plain_with_variance(scene, spp: int, seed: int, pass_spp: int | None, progress,
