@@ -464,15 +464,9 @@ def object_labels(xml: Path, grid: Grid, defines: dict | None = None
     """Which shape each sub-sample of the grid sees first along the lens centre's ray
     (Mitsuba's intersection; -1: nothing, the sky), and the shapes' names. Pooling the
     z-test over these groups tests each object as a whole."""
-    scene, _ = load_mitsuba(xml, grid, dict(defines or {}))
-    return hit_labels(scene, grid)
-
-
-def hit_labels(scene, grid: Grid) -> tuple[np.ndarray, list[str]]:
-    """:func:`object_labels` of a loaded scene whose first sensor's film is cropped to the
-    grid's rectangle."""
     import drjit as dr
     import mitsuba as mi
+    scene, _ = load_mitsuba(xml, grid, dict(defines or {}))
     sensor = scene.sensors()[0]
     cw, ch = (int(v) for v in sensor.film().crop_size())
     j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")
@@ -594,6 +588,31 @@ def plain_side(xml: Path | Bundle, grid: Grid, spp: int, seeds: tuple, defines: 
                              load if not out else 0.0, dof=mitsuba_dof(True, times)))
     found = hit_labels(scene, grid) if labels else None
     return out, found, pooled_inflation(scene.sensors()[0].film(), grid.stride)
+
+
+def hit_labels(scene, grid: Grid) -> tuple[np.ndarray, list[str]]:
+    """:func:`object_labels` of a loaded scene (an ordinary one) whose first sensor's film is
+    cropped to the grid's rectangle: which shape each grid pixel's centre ray meets first
+    (-1: nothing), and the shapes' names."""
+    import drjit as dr
+    import mitsuba as mi
+    sensor = scene.sensors()[0]
+    cw, ch = (int(v) for v in sensor.film().crop_size())
+    j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")
+    u = ((i.ravel() + 0.5) / cw).astype(np.float32)
+    v = ((j.ravel() + 0.5) / ch).astype(np.float32)
+    ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5),
+                               mi.Point2f(mi.Float(u), mi.Float(v)), mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    hit = np.array(si.is_valid(), dtype=bool)
+    ptr = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
+    shapes = scene.shapes()
+    ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), dtype=np.int64)
+    order = np.argsort(ids)
+    pos = np.clip(np.searchsorted(ids[order], ptr), 0, ids.size - 1)
+    lab = np.where(hit & (ids[order][pos] == ptr), order[pos], -1).astype(np.int64)
+    names = [f"{k} {s.id() or _kind(s)}" for k, s in enumerate(shapes)]
+    return grid.take(lab.reshape(ch, cw)), names
 
 
 def pooled_inflation(film, stride: int = 1) -> float:
