@@ -32,6 +32,8 @@ class Options:
     noise_floor: bool = False     #: also render the port with seed + 1 (FLIP of noise alone)
     exposure_seeds: int = 8       #: page 4: auto exposures per side for the exposure test
     reference: Path | None = None  #: a reference image as the other side (refimage)
+    against: Path | None = None    #: an ordinary scene's other side, OTHER.xml (scene_compare)
+    reference_variance: Path | None = None  #: an ordinary scene's reference variance image
 
 
 def log(message: str) -> None:

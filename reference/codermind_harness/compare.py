@@ -22,7 +22,9 @@ For each scene (:func:`compare_scene`):
    heat-map PNG and a JSON record (:mod:`.report`).
 
 ``--reference IMAGE`` compares the Mitsuba side with an image instead
-(:mod:`.compare_image`). The renders are units of the runner handed in (:mod:`.runner`).
+(:mod:`.compare_image`). Any other Mitsuba XML (no tutorial twin, or ``--against OTHER.xml``)
+is compared with another render of it (:mod:`.scene_compare`). The renders are units of the
+runner handed in (:mod:`.runner`).
 """
 
 from __future__ import annotations
@@ -35,21 +37,34 @@ from pathlib import Path
 
 import numpy as np
 
-from . import metrics, report, sides, verdict
+from . import metrics, report, scene_compare, sides, verdict
 from .case import Case, Options, labels, log, mitsuba_xml, prepare, strip_free_rows
 from .compare_image import compare_reference
 from .report import format_table  # noqa: F401  (the command prints the tables)
 from .runner import LOCAL, Runner
+from .scene_compare import SceneCase
 from .sides import Grid, Renders
 from .verdict import Tests, Thresholds
 
 
-def compare_scene(path: str | os.PathLike | Case, opt: Options, label: str | None = None,
-                  runner: Runner = LOCAL) -> dict:
+def prepare_any(path: str | os.PathLike, opt: Options) -> Case | SceneCase:
+    """A tutorial scene's :class:`Case`, or an ordinary Mitsuba scene's
+    :class:`~.scene_compare.SceneCase` (``--against``, or an XML without a tutorial twin)."""
+    if scene_compare.is_ordinary(path, opt):
+        return scene_compare.prepare(path, opt)
+    return prepare(path, opt)
+
+
+def compare_scene(path: str | os.PathLike | Case | SceneCase, opt: Options,
+                  label: str | None = None, runner: Runner = LOCAL) -> dict:
     """Compare one scene; returns its JSON record (``passed``, ``failures``, numbers).
     ``label``: the stem of the files written for it (default: the scene file's stem)."""
-    case = path if isinstance(path, Case) else prepare(path, opt)
+    case = path if isinstance(path, (Case, SceneCase)) else prepare_any(path, opt)
     label = label or case.path.stem
+    if isinstance(case, SceneCase):
+        out = Path(opt.out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        return scene_compare.compare(case, opt, label, out, runner)
     if case.scene.page != 4 and case.spp != 1:
         log(f"{case.txt.name}: page {case.scene.page} is deterministic; --spp {case.spp} "
             "changes nothing (the port ignores it)")
@@ -164,7 +179,7 @@ def run(scenes: list[str], opt: Options, variant: str | None = None,
     set_variant(variant)
     import codermind  # noqa: F401  (registers the plugins)
     t0 = time.perf_counter()
-    cases = [prepare(s, opt) for s in scenes]      # bad input stops before any rendering
+    cases = [prepare_any(s, opt) for s in scenes]  # bad input stops before any rendering
     jobs = list(zip(cases, labels(scenes)))
     if not runner.remote or len(jobs) < 2:
         records = [compare_scene(c, opt, label, runner) for c, label in jobs]

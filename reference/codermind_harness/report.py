@@ -80,28 +80,29 @@ class MapPanel:
 
 def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
                   flip_map: np.ndarray, z: metrics.ZTest, port_label: str, title: str,
-                  zlabel: str = "|z| per sub-sample") -> None:
-    """One PNG: both images, the FLIP map and the |z| map (failing sub-samples in red)."""
+                  zlabel: str = "|z| per sub-sample", left_label: str = "Mitsuba") -> None:
+    """One PNG: both images, the FLIP map and the |z| map (failing sub-samples in red);
+    ``left_label``: the first image's title."""
     import matplotlib           # heavy
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from codermind.imageio import atomic_path
     with _PYPLOT:       # pyplot is not thread-safe (scenes compared in threads on a cluster)
         _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z,
-                 port_label, title, zlabel)
+                 port_label, title, zlabel, left_label)
 
 
 _PYPLOT = threading.Lock()
 
 
 def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, port_label,
-             title, zlabel="|z| per sub-sample") -> None:
+             title, zlabel="|z| per sub-sample", left_label="Mitsuba") -> None:
     h, w = mits.shape[:2]
     panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
     fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
                              dpi=100, constrained_layout=True)
     axes[0, 0].imshow(mits, interpolation="nearest")
-    axes[0, 0].set_title("Mitsuba", fontsize=9)
+    axes[0, 0].set_title(left_label, fontsize=9)
     axes[0, 1].imshow(port, interpolation="nearest")
     axes[0, 1].set_title(port_label, fontsize=9)
     full_flip = np.full((h, w), np.nan)
@@ -131,11 +132,33 @@ def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, 
 def format_table(records: list[dict]) -> str:
     """Fixed-width tables: the image tests, one row per scene (``E test``: the exposure
     test's verdict), then the exposure test, one row per page-4 scene; scenes compared with a
-    reference image (``--reference``) in a table of their own."""
+    reference image (``--reference``) in a table of their own, and so are ordinary Mitsuba
+    scenes (``ordinary``: against OTHER or a reference image, :mod:`.scene_compare`)."""
+    ordinary = [r for r in records if r.get("ordinary")]
+    records = [r for r in records if not r.get("ordinary")]
     refs = [r for r in records if r.get("reference")]
     records = [r for r in records if not r.get("reference")]
     parts = ([_port_table(records)] if records else []) + ([_reference_table(refs)] if refs else [])
+    parts += [_scene_table(ordinary)] if ordinary else []
     return "\n\n".join(parts)
+
+
+def _scene_table(records: list[dict]) -> str:
+    """Ordinary scenes: the per-pixel z-test, the pooled tests (tiles / objects / image),
+    FLIP and its limit, relative MSE and the noise's share of it."""
+    head = ("scene", "against", "pixels", "spp", "pass rate", "fail", "max|z|", "z sd",
+            "pooled", "FLIP", "FLIP limit", "relMSE", "noise", "seconds", "verdict")
+    rows = []
+    for r in records:
+        z = r["z_test"]
+        other = Path(r["against"] or r["reference"]).name
+        rows.append((r["label"], other, str(r["pixels"]), str(r["spp"]),
+                     f"{z['pass_rate']:.5f}", str(z["failing_pixels"]),
+                     _num(z["max_abs_z"], ".3g"), _num(z["z_sd"], ".3f"), _pooled(r),
+                     f"{r['flip_mean']:.5f}", f"{r['flip_limit']:.5f}", f"{r['rel_mse']:.3g}",
+                     f"{r['rel_mse_noise']:.3g}", f"{r['seconds']['total']:.1f}",
+                     "pass" if r["passed"] else "FAIL"))
+    return _fixed(head, rows)
 
 
 def _reference_table(records: list[dict]) -> str:

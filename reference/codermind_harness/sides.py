@@ -159,6 +159,23 @@ def twin_of(path: str | os.PathLike) -> tuple[Path, Path | None]:
                        + f"and there is no {path.with_suffix('.txt').name} next to it")
 
 
+def is_converted(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a tutorial scene for ``compare`` (:func:`twin_of` then finds its
+    twin, or says why not): a scene file that is not an ``.xml``, an XML whose header names
+    the converter's source, or one with a ``.txt`` of the same name next to it. Any other
+    XML is an ordinary Mitsuba scene (:mod:`.scene_compare`)."""
+    path = Path(path)
+    if path.suffix.lower() != ".xml":
+        return True
+    if path.with_suffix(".txt").is_file():
+        return True
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return True                 # twin_of says what is wrong with it
+    return _SOURCE.search(text) is not None
+
+
 def parse(txt: Path):
     try:
         return ref.parse_scene(txt)
@@ -267,9 +284,8 @@ def sampler_xml(text: str, kind: str) -> str:
 def load_mitsuba(xml: Path, grid: Grid, defines: dict, iid: bool = False):
     """The scene of ``xml`` with the first sensor's film cropped to the grid's rectangle;
     with ``iid``, its sampler replaced by ``independent`` (:func:`iid_sampler_xml`)."""
-    import mitsuba as mi
     from codermind.errors import CodermindError
-    from codermind.scene import attach_emitters, load_scene
+    from codermind.scene import load_scene
     from codermind.tutorial.render import read_settings
     settings = read_settings(xml)
     if settings is None:
@@ -287,21 +303,29 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict, iid: bool = False):
             text = crop_xml(text, *grid.crop())
         if iid:
             text = iid_sampler_xml(text)
-        resolver = mi.file_resolver()
-        saved = [resolver[i] for i in range(len(resolver))]
-        resolver.prepend(str(xml.resolve().parent))   # as load_file does for its own folder
-        try:
-            scene = mi.load_string(text, **defines)
-        finally:
-            resolver.clear()
-            for folder in saved:
-                resolver.append(folder)
-        attach_emitters(scene)
-        return scene, settings
+        return _load_text(text, xml, defines), settings
     except CodermindError as e:
         raise HarnessError(str(e)) from None
     except (RuntimeError, ValueError, TypeError) as e:
         raise HarnessError(f"{xml}: {e}") from None
+
+
+def _load_text(text: str, xml: Path, defines: dict):
+    """``mi.load_string(text)`` with names resolved against ``xml``'s folder, as
+    ``mi.load_file`` resolves them for its own file; the Python emitters attached."""
+    import mitsuba as mi
+    from codermind.scene import attach_emitters
+    resolver = mi.file_resolver()
+    saved = [resolver[i] for i in range(len(resolver))]
+    resolver.prepend(str(xml.resolve().parent))   # as load_file does for its own folder
+    try:
+        scene = mi.load_string(text, **defines)
+    finally:
+        resolver.clear()
+        for folder in saved:
+            resolver.append(folder)
+    attach_emitters(scene)
+    return scene
 
 
 def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.ndarray:
@@ -472,3 +496,155 @@ def _kind(shape) -> str:
         except RuntimeError:
             pass
     return name.lower()
+
+
+# -- any Mitsuba scene -----------------------------------------------------------------------
+
+def load_plain(xml: Path, grid: Grid | None, defines: dict):
+    """An ordinary Mitsuba scene (no tutorial pipeline: its own integrator, sampler and light
+    sampling) with the XML ``defines``; with a ``grid`` that is not the whole film, its first
+    film cropped to the grid's rectangle. A one-line HarnessError for what Mitsuba refuses."""
+    from codermind.errors import CodermindError
+    from codermind.scene import load_scene
+    try:
+        if grid is None or grid.rect == (0, 0, grid.width, grid.height):
+            scene = load_scene(xml, **defines)
+        else:
+            scene = _load_text(crop_xml(xml.read_text(encoding="utf-8"), *grid.crop()), xml,
+                               defines)
+    except CodermindError as e:
+        raise HarnessError(str(e)) from None
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise HarnessError(f"{xml}: {' '.join(str(e).split())}") from None
+    if not scene.sensors():
+        raise HarnessError(f"{xml}: the scene has no sensor to render from")
+    if scene.integrator() is None:
+        raise HarnessError(f"{xml}: the scene has no integrator")
+    return scene
+
+
+def plain_film(xml: Path, defines: dict) -> tuple[int, int, int]:
+    """(width, height, sample count) of the first sensor of ``xml`` with ``defines``."""
+    scene = load_plain(xml, None, defines)
+    sensor = scene.sensors()[0]
+    w, h = (int(v) for v in sensor.film().size())
+    return w, h, int(sensor.sampler().sample_count())
+
+
+def encode_plain(linear: np.ndarray) -> np.ndarray:
+    """The displayed image of an ordinary scene's linear film, before 8 bits: clipped to
+    [0, 1] and sRGB-encoded (what ``codermind render`` writes to its PNG)."""
+    from codermind.tutorial.image import srgb_encode
+    return np.clip(srgb_encode(np.clip(linear, 0.0, 1.0)), 0.0, 1.0)
+
+
+def render_plain(xml: Path, grid: Grid, spp: int, seeds, defines: dict | None = None,
+                 labels: bool = False, progress: bool = True, runner: Runner = LOCAL):
+    """Handles (for ``runner.results``) of :func:`plain_side`: ``xml`` rendered with each of
+    ``seeds`` as one unit of ``runner``, in this process's Mitsuba variant."""
+    import mitsuba as mi        # heavy: Mitsuba and its JIT
+    return runner.submit_all(plain_side, [(runner.ship(xml), grid, spp, tuple(seeds),
+                                          dict(defines or {}), mi.variant(), labels,
+                                          progress and not runner.remote)])[0]
+
+
+def plain_side(xml: Path | Bundle, grid: Grid, spp: int, seeds: tuple, defines: dict,
+               variant: str | None, labels: bool, progress: bool
+               ) -> tuple[list[SideImage], tuple | None, float]:
+    """An ordinary scene's grid rendered once per seed (the scene loaded once), each render's
+    variance estimated from its pass means as for a tutorial scene
+    (``codermind.tutorial.render.render_linear``: >= 16 passes, degrees of freedom passes -
+    1); with ``labels``, also the shape each grid pixel's centre ray meets first
+    (:func:`hit_labels`); and its film's :func:`pooled_inflation`."""
+    from codermind.passes import Progress      # heavy: Mitsuba (so are those below)
+    from codermind.tutorial.render import render_linear
+    t0 = time.perf_counter()
+    _use_variant(variant)
+    path = xml if isinstance(xml, Path) else xml.materialize()
+    scene = load_plain(path, grid, defines)
+    size = tuple(int(v) for v in scene.sensors()[0].film().size())
+    if size != (grid.width, grid.height):
+        raise HarnessError(f"{xml.name}: its film is {size[0]}x{size[1]}, not the "
+                           f"{grid.width}x{grid.height} the comparison was prepared for")
+    load = time.perf_counter() - t0
+    out = []
+    for seed in seeds:
+        t1 = time.perf_counter()
+        bar = Progress(spp, label=f"mitsuba {xml.name} seed {seed}") if progress else None
+        try:
+            mean, var, done, times = render_linear(scene, spp, int(seed), variance=True,
+                                                   progress=bar)
+        except (RuntimeError, ValueError) as e:     # e.g. a plugin refusing its scene
+            raise HarnessError(f"{xml.name}: rendering failed: {' '.join(str(e).split())}"
+                               ) from None
+        linear = grid.take(mean.astype(np.float64))
+        bad = int((~np.isfinite(linear)).sum())
+        if bad:
+            raise HarnessError(f"{xml.name}: the render with seed {seed} has {bad} NaN or "
+                               "infinite values")
+        v = grid.take(var.astype(np.float64))
+        out.append(SideImage(xml.name, linear, v, encode_plain(linear), done,
+                             time.perf_counter() - t1 + (load if not out else 0.0),
+                             load if not out else 0.0, dof=mitsuba_dof(True, times)))
+    found = hit_labels(scene, grid) if labels else None
+    return out, found, pooled_inflation(scene.sensors()[0].film(), grid.stride)
+
+
+def hit_labels(scene, grid: Grid) -> tuple[np.ndarray, list[str]]:
+    """:func:`object_labels` of a loaded scene (an ordinary one) whose first sensor's film is
+    cropped to the grid's rectangle: which shape each grid pixel's centre ray meets first
+    (-1: nothing), and the shapes' names."""
+    import drjit as dr
+    import mitsuba as mi
+    sensor = scene.sensors()[0]
+    cw, ch = (int(v) for v in sensor.film().crop_size())
+    j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")
+    u = ((i.ravel() + 0.5) / cw).astype(np.float32)
+    v = ((j.ravel() + 0.5) / ch).astype(np.float32)
+    ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5),
+                               mi.Point2f(mi.Float(u), mi.Float(v)), mi.Point2f(0.5, 0.5))
+    si = scene.ray_intersect(ray)
+    hit = np.array(si.is_valid(), dtype=bool)
+    ptr = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
+    shapes = scene.shapes()
+    ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), dtype=np.int64)
+    order = np.argsort(ids)
+    pos = np.clip(np.searchsorted(ids[order], ptr), 0, ids.size - 1)
+    lab = np.where(hit & (ids[order][pos] == ptr), order[pos], -1).astype(np.int64)
+    names = [f"{k} {s.id() or _kind(s)}" for k, s in enumerate(shapes)]
+    return grid.take(lab.reshape(ch, cw)), names
+
+
+def pooled_inflation(film, stride: int = 1) -> float:
+    """var(sum of a group's pixel means) / (sum of their variances) for a group much wider
+    than the film's reconstruction filter: each sample is splatted into every pixel within
+    the filter's radius, so neighbouring pixels' means are correlated (1 for a box filter
+    of one pixel; pi for Mitsuba's default, a Gaussian of sd 0.5 px). With samples spread
+    uniformly and the filter separable, f(x) f(y), each pixel's mean normalised by its
+    weight sum, the correlation of pixels d apart is g(d) / g(0), g(d) = int f(x) f(x - d) dx
+    per axis, and the factor is (sum over integer d of g(d) / g(0))^2 (d a multiple of
+    ``stride`` where the grid takes every stride-th pixel). A group's edge pixels
+    have fewer correlated partners inside it, so the factor overstates the variance of a
+    small group's sum (conservative)."""
+    import math
+
+    import drjit as dr
+    import mitsuba as mi
+    rf = film.rfilter()
+    r = float(rf.radius())
+    x = np.linspace(-r, r, 4001)
+    if dr.is_jit_v(mi.Float):
+        f = np.array(rf.eval(mi.Float(x.astype(np.float32))), dtype=np.float64)
+    else:
+        f = np.array([float(rf.eval(float(v))) for v in x])
+    dx = x[1] - x[0]
+
+    def g(d: int) -> float:
+        return float(np.sum(f * np.interp(x - d, x, f, left=0.0, right=0.0)) * dx)
+
+    g0 = g(0)
+    if not g0 > 0:
+        return 1.0
+    reach = int(math.ceil(2 * r))
+    k = sum(g(d) for d in range(-reach, reach + 1) if d % stride == 0) / g0
+    return float(max(k, 1.0) ** 2)

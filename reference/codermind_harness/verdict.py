@@ -105,3 +105,60 @@ def statistical_failures(bt: metrics.BlurTest, mt: metrics.MeanTest) -> list[str
         failures.append(f"mean difference {mt.mean_diff[worst]:+.3g} (channel {'RGB'[worst]}), "
                         f"z {mt.z[worst]:.3g}, p {mt.p[worst]:.2g} < {mt.alpha:.2g}")
     return failures
+
+
+# -- any Mitsuba scene (``--against OTHER.xml``, or an ordinary scene's ``--reference``) ------
+
+#: A noisy channel whose z, as the normal score of its Welch t (each side's variance
+#: estimated from its pass means: :func:`metrics.signed_z` with degrees of freedom), lies
+#: beyond SCENE_Z_FAR times the Sidak bound of the per-pixel z-test fails the scene on its
+#: own, whatever the pass rate: p ~ 1e-19 or less where the bound is 4.5, which noise does
+#: not reach (a Welch t is bounded near 1 where one rare sample dominates both its
+#: difference and its variance), while one pixel that truly differs does.
+SCENE_Z_FAR = 2.0
+
+
+@dataclass
+class SceneTests:
+    """The tests of an ordinary scene against another render (``scene_compare.measure``)."""
+    z: metrics.ZTest                        #: per pixel, linear radiance
+    far_z: float | None                     #: largest |z| (Welch, dof-corrected), noisy channels
+    far_where: tuple | None                 #: (x, y, channel) of it, display order
+    flip_mean: float
+    flip_map: np.ndarray
+    flip_noise: float                       #: SCENE against itself with another seed
+    rel_mse: float
+    rel_mse_noise: float                    #: the relative MSE the variances alone explain
+    pooled: dict                            #: tiles, objects (where known), image
+    far_judged: bool = True                 #: False: far_z reported, not judged (a reference
+                                            #: without a variance image)
+
+
+def scene_failures(t: SceneTests, pixels: int, th: Thresholds) -> tuple[list[str], float]:
+    """The failures of an ordinary scene against another render, and the FLIP limit it was
+    held to (its noise floor's, :func:`metrics.flip_limit`): the per-pixel z-test's pass
+    rate, a |z| far beyond its Sidak bound (:data:`SCENE_Z_FAR`; where ``far_judged``), FLIP,
+    and the pooled
+    differences over tiles, objects and the whole image."""
+    failures = []
+    z = t.z
+    if z.pass_rate < th.pass_rate:
+        failures.append(f"z-test pass rate {z.pass_rate:.5f} < {th.pass_rate}")
+    bound = SCENE_Z_FAR * z.z_critical
+    if t.far_judged and t.far_z is not None and t.far_z > bound:
+        x, y, c = t.far_where
+        failures.append(f"|z| {t.far_z:.3g} at pixel ({x}, {y}) {'RGB'[c]} > {SCENE_Z_FAR:g} x "
+                        f"the Sidak bound {z.z_critical:.3g}")
+    flip_limit = metrics.flip_limit(t.flip_noise, pixels, th.flip_k, th.flip_eps, th.flip_k0)
+    if t.flip_mean > flip_limit:
+        failures.append(f"mean FLIP {t.flip_mean:.5f} > {flip_limit:.5f} (its noise floor "
+                        f"{t.flip_noise:.5f} x (1 + {th.flip_k0:g} + {th.flip_k:g} / "
+                        f"sqrt({pixels} pixels)) + {th.flip_eps:g})")
+    for kind, p in t.pooled.items():
+        if not p["passed"]:
+            g, c, zz, n = p["failing"][0]
+            failures.append(f"pooled z over {kind}: {len(p['failing'])}"
+                            f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
+                            f"{p['z_critical']:.3g} (worst: {g} {c}, Z {zz:.3g} over "
+                            f"{n} pixels)")
+    return failures, flip_limit

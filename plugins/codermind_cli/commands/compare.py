@@ -21,7 +21,16 @@ the .txt of the same name next to it).
 a .tga/.png on the displayed bytes, an .exr on the linear film; exactly for scenes without
 randomness (bytes within one level, or the float tolerance, on >= the pass rate), else a
 Gaussian-blurred difference and a mean difference against the noise floor of our side with
-two seeds (see docs/harness.md)."""
+two seeds (see docs/harness.md).
+
+Any other Mitsuba XML (an ordinary scene, no tutorial twin) is compared with another render
+of it: --against OTHER.xml (both rendered here, with the same -D defines and samples) or
+--reference IMAGE.exr (with IMAGE.variance.exr next to it or --reference-variance FILE, the
+variance of each pixel's mean; without one the reference is taken to be as noisy as our
+side). Each render's per-pixel variance comes from >= 16 passes; the tests are the per-pixel
+two-sample z-test (pass rate, and no |z| beyond twice its Sidak bound), the pooled
+difference over 16 x 16 tiles, objects and the whole image, and FLIP against SCENE's own
+noise floor (SCENE again with another seed)."""
 
 from __future__ import annotations
 
@@ -32,23 +41,28 @@ from ..args import define, fraction, level, positive_float, positive_int, rect, 
 from ..limits import worker_count
 
 NAME = "compare"
-HELP = ("compare the Mitsuba plugins with the port on tutorial scenes (z-test, FLIP, relMSE, "
-        "auto exposure)")
+HELP = ("compare the Mitsuba plugins with the port on tutorial scenes, or any Mitsuba scene "
+        "with another render of it (z-test, pooled tests, FLIP, relMSE, auto exposure)")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scenes", nargs="+", metavar="SCENE", help="tutorial scene .txt or converted .xml")
+    p.add_argument("scenes", nargs="+", metavar="SCENE",
+                   help="tutorial scene .txt or converted .xml; any other Mitsuba .xml with "
+                        "--against or --reference")
     p.add_argument("-o", "--output", metavar="DIR", default="compare",
                    help="output folder (default ./compare)")
     p.add_argument("--spp", type=positive_int, metavar="N",
                    help="samples per sub-sample on both sides (port Complexity = Mitsuba spp); "
                         "default 1 for scenes without randomness, else the scene's Complexity, "
-                        "at least 64 (FLIP needs the noise of both sides below its threshold)")
+                        "at least 64 (FLIP needs the noise of both sides below its threshold); "
+                        "an ordinary scene: its sampler's count, at least 32")
     p.add_argument("--seed", type=seed, default=0, help="seed of both sides (default 0)")
     p.add_argument("--stride", type=positive_int, default=1, metavar="K",
-                   help="compare every K-th pixel in x and y (faster; default 1)")
+                   help="compare every K-th pixel in x and y (faster for the port; an "
+                        "ordinary scene renders the whole --rect; default 1)")
     p.add_argument("--rect", type=rect, metavar="x0,y0,x1,y1",
-                   help="compare only these pixels (half-open, tutorial coordinates, y up)")
+                   help="compare only these pixels (half-open, tutorial coordinates, y up; "
+                        "an ordinary scene: film pixels, y up from the bottom row)")
     p.add_argument("--exposure", type=positive_float, metavar="E",
                    help="exposure of both sides (default: page 4 the port's auto exposure for "
                         "the seed, page 2: 1)")
@@ -61,7 +75,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="strict: the Mitsuba side's tutorialpath integrator with the original's "
                         "quirks against the port in strict mode (default clean: both clean)")
     p.add_argument("-D", "--define", metavar="NAME=VALUE", type=define, action="append", default=[],
-                   help="XML <default> override on the Mitsuba side, e.g. -D max_depth=5")
+                   help="XML <default> override on the Mitsuba side (both scenes with "
+                        "--against), e.g. -D max_depth=5")
     p.add_argument("--min-pass-rate", type=fraction, default=0.99, metavar="R",
                    help="smallest z-test pass rate (default 0.99)")
     p.add_argument("--max-flip", type=fraction, default=0.01, metavar="F",
@@ -80,7 +95,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "of the port; one SCENE. Scenes without randomness must agree exactly "
                         "(bytes within one level, or the float tolerance), random ones "
                         "statistically against our side's noise floor (default --spp: the "
-                        "scene's Complexity, the sample count the reference must have)")
+                        "scene's Complexity, the sample count the reference must have). An "
+                        "ordinary Mitsuba scene takes an .exr of its film")
+    p.add_argument("--reference-variance", metavar="FILE",
+                   help="ordinary scene: the variance of each reference pixel's mean (.exr; "
+                        "default IMAGE.variance.exr next to the reference, as codermind render "
+                        "--variance writes it; without one the reference is taken to be as "
+                        "noisy as our side)")
+    p.add_argument("--against", metavar="OTHER.xml",
+                   help="compare SCENE (any Mitsuba XML) with OTHER, the same scene rendered "
+                        "another way (another integrator, a built-in stand-in, an edited copy): "
+                        "both rendered here in passes, their per-pixel variances estimated; one "
+                        "SCENE")
     p.add_argument("--workers", type=worker_count, metavar="N", help="port worker processes")
     p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
@@ -103,6 +129,14 @@ def run(args: argparse.Namespace) -> int:
         raise CodermindError("--quirks strict sets the port's mode (strict): drop --port-mode")
     if "spp" in defines:
         raise CodermindError("-D spp=...: use --spp (it sets both sides)")
+    if args.against is not None:
+        if len(args.scenes) != 1:
+            raise CodermindError(f"--against {args.against}: give one SCENE, got "
+                                 f"{len(args.scenes)}")
+        if args.reference is not None:
+            raise CodermindError("--against and --reference: give one other side")
+    if args.reference_variance is not None and args.reference is None:
+        raise CodermindError("--reference-variance: give it with --reference IMAGE.exr")
     if args.reference is not None:
         if len(args.scenes) != 1:
             raise CodermindError(f"--reference {args.reference}: give one SCENE, got "
@@ -118,7 +152,10 @@ def run(args: argparse.Namespace) -> int:
                                         exposure_alpha=args.exposure_alpha),
                   progress=not args.quiet, workers=args.workers,
                   noise_floor=args.noise_floor, exposure_seeds=args.exposure_seeds,
-                  reference=None if args.reference is None else Path(args.reference))
+                  reference=None if args.reference is None else Path(args.reference),
+                  against=None if args.against is None else Path(args.against),
+                  reference_variance=(None if args.reference_variance is None
+                                      else Path(args.reference_variance)))
     try:
         allow = [Path(s).parent for s in args.scenes] + args.allow_files
         with open_runner(args.cluster, progress=not args.quiet, allow=allow) as runner:

@@ -46,8 +46,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "tutorial sums its lights at every hit), 'sample' lets Mitsuba pick "
                         "one light per hit (faster, noisier); default: the scene's block")
     p.add_argument("--variance", action="store_true",
-                   help="tutorial scenes: also write OUT.variance.exr, the variance of each "
-                        "sub-sample's mean, estimated from >= 16 passes")
+                   help="also write OUT.variance.exr, the variance of each film pixel's mean "
+                        "(tutorial scenes: each sub-sample's), estimated from >= 16 passes "
+                        "(the reference variance codermind compare reads next to OUT.exr); an "
+                        "ordinary scene's OUT.exr then holds RGB")
     p.add_argument("--plain", action="store_true",
                    help="ignore a codermind-tutorial block: plain EXR + sRGB PNG")
     p.add_argument("--deterministic", action="store_true",
@@ -113,6 +115,9 @@ def run(args: argparse.Namespace) -> int:
                     lights=args.lights, pass_spp=args.pass_spp, variance=args.variance,
                     progress=Progress(spp, label=scene_path.name),
                     should_stop=should_stop)
+            elif args.variance:
+                result = _plain_with_variance(scene, spp, args.seed, args.pass_spp,
+                                              Progress(spp, label=scene_path.name), should_stop)
             else:
                 result = render_passes(scene, spp=spp, seed=args.seed, pass_spp=args.pass_spp,
                                        progress=Progress(spp, label=scene_path.name),
@@ -135,14 +140,44 @@ def run(args: argparse.Namespace) -> int:
     _warn_non_finite(scene_path, result.image)
     exr, png = outputs.write_set(base, {
         ".exr": lambda path: write_exr(path, result.image, result.channel_names),
-        ".png": lambda path: write_png_srgb(path, result.image)})
+        ".png": lambda path: write_png_srgb(path, result.image),
+        **_variance_writer(result)})[:2]
     if result.interrupted:
         print(f"codermind: interrupted ({signals.describe(signals.received())}): wrote the "
               f"{result.spp} of {result.spp_requested} spp finished to {exr} and {png}",
               file=sys.stderr)
         return 130
-    print(f"wrote {exr} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
+    also = "" if getattr(result, "variance", None) is None else \
+        f", {base.parent / (base.name + '.variance.exr')}"
+    print(f"wrote {exr}{also} and {png} ({result.spp} spp, {result.seconds:.2f} s)")
     return 0
+
+
+def _variance_writer(result) -> dict:
+    """``{".variance.exr": writer}`` where the render estimated its variance, else {}."""
+    if getattr(result, "variance", None) is None:
+        return {}
+    from codermind.imageio import write_exr
+    return {".variance.exr": lambda path: write_exr(path, result.variance)}
+
+
+def _plain_with_variance(scene, spp: int, seed: int, pass_spp: int | None, progress,
+                         should_stop):
+    """An ordinary scene's RGB film and the variance of each pixel's mean from >= 16 pass
+    means (``codermind.tutorial.render.render_linear``, which compare's renders use too), as
+    a ``RenderResult`` with a ``variance`` attribute."""
+    import time
+    from codermind.passes import RenderResult
+    from codermind.tutorial.render import render_linear
+    t0 = time.perf_counter()
+    mean, var, done, times = render_linear(scene, spp, seed, pass_spp, variance=True,
+                                           progress=progress, should_stop=should_stop)
+    if mean is None:
+        mean = var = None
+    result = RenderResult(mean if done else None, ["R", "G", "B"], done, spp,
+                          time.perf_counter() - t0, times)
+    result.variance = var if done else None
+    return result
 
 
 def _finish_tutorial(result, base: Path) -> int:
