@@ -169,12 +169,14 @@ TILE_BUDGET = 1 << 22
 
 
 def film_tiles(offset: tuple[int, int], size: tuple[int, int],
-               budget: int = TILE_BUDGET) -> list[tuple[int, int, int, int]]:
+               budget: int | None = None) -> list[tuple[int, int, int, int]]:
     """(x, y, width, height) tiles, in film pixels, covering the crop window at ``offset`` of
-    ``size``, row by row; the window itself when it has at most ``budget`` pixels. Tiles are
+    ``size``, row by row; the window itself when it has at most ``budget`` pixels (default:
+    ``TILE_BUDGET``, read at the call). Tiles are
     ``min(W, isqrt(budget))`` wide and as tall as the budget allows (a narrow film gets tall
     tiles); the last column and row hold the remainder."""
     (x0, y0), (w, h) = (int(v) for v in offset), (int(v) for v in size)
+    budget = TILE_BUDGET if budget is None else budget
     if budget < 1:
         raise ValueError("tile budget must be >= 1 pixel")
     if w * h <= budget:
@@ -218,14 +220,15 @@ def film_crop(sensor: mi.Sensor):
 def accumulate(scenes: list[mi.Scene], sensor: mi.Sensor | int, plan: list[int], seed: int,
                rgb: bool = False, variance: bool = False, progress: Progress | None = None,
                should_stop: Callable[[], bool] = lambda: False,
-               tile_budget: int = TILE_BUDGET, margin: int | None = None):
+               tile_budget: int | None = None, margin: int | None = None):
     """Render the passes of ``plan`` (samples per pixel of each, pass i with seed
     ``pass_seed(seed, i)``) and return their sample-weighted mean: the film of ``sensor``
     summed over ``scenes`` (rendered with the same seeds), every channel (``rgb``: the first
     three). With ``variance``, also the variance of that mean from the pass means
     (s^2 = sum n_i (m_i - m)^2 / (k - 1) over k passes, divided by the sample count).
 
-    A film (its crop window) of more than ``tile_budget`` pixels is rendered in tiles
+    A film (its crop window) of more than ``tile_budget`` pixels (default: ``TILE_BUDGET``,
+    read at the call) is rendered in tiles
     (:func:`film_tiles`) through the film's crop window, every tile of a pass before the
     next pass, each (pass, tile) with its own seed (:func:`tile_seed`); a tile is rendered
     with a margin of ``margin`` pixels (default: the reconstruction filter's border),
