@@ -1,5 +1,6 @@
 """Rendering in passes: the sample budget is split into passes with distinct seeds,
-accumulated as a sample-weighted mean, with progress, ETA and clean interruption.
+accumulated as a sample-weighted mean, with progress, ETA and clean interruption. A film
+larger than ``TILE_BUDGET`` pixels is rendered tile by tile within each pass (:func:`accumulate`).
 
 The split depends only on the sample count and the image size (never on timing), so
 a fixed seed gives the same image on every run.
@@ -168,6 +169,18 @@ def scene_spp(scene: mi.Scene, sensor: int = 0) -> int:
 TILE_BUDGET = 1 << 22
 
 
+def tile_size(size: tuple[int, int], budget: int | None = None) -> tuple[int, int]:
+    """Width and height of the largest tile of :func:`film_tiles` for a window of ``size``."""
+    w, h = (int(v) for v in size)
+    budget = TILE_BUDGET if budget is None else budget
+    if budget < 1:
+        raise ValueError("tile budget must be >= 1 pixel")
+    if w * h <= budget:
+        return w, h
+    tw = min(w, max(1, math.isqrt(budget)))
+    return tw, min(h, max(1, budget // tw))
+
+
 def film_tiles(offset: tuple[int, int], size: tuple[int, int],
                budget: int | None = None) -> list[tuple[int, int, int, int]]:
     """(x, y, width, height) tiles, in film pixels, covering the crop window at ``offset`` of
@@ -176,13 +189,7 @@ def film_tiles(offset: tuple[int, int], size: tuple[int, int],
     ``min(W, isqrt(budget))`` wide and as tall as the budget allows (a narrow film gets tall
     tiles); the last column and row hold the remainder."""
     (x0, y0), (w, h) = (int(v) for v in offset), (int(v) for v in size)
-    budget = TILE_BUDGET if budget is None else budget
-    if budget < 1:
-        raise ValueError("tile budget must be >= 1 pixel")
-    if w * h <= budget:
-        return [(x0, y0, w, h)]
-    tw = min(w, max(1, math.isqrt(budget)))
-    th = min(h, max(1, budget // tw))
+    tw, th = tile_size((w, h), budget)
     return [(x0 + x, y0 + y, min(tw, w - x), min(th, h - y))
             for y in range(0, h, th) for x in range(0, w, tw)]
 
