@@ -207,15 +207,16 @@ def film_crop(sensor: mi.Sensor):
     """A function ``set(offset, size)`` that sets ``sensor``'s film crop window through
     ``mi.traverse`` (the sensor rebuilds what depends on it in ``parameters_changed``); the
     crop found on entry is restored on exit, also on an error or an interrupt."""
-    params = mi.traverse(sensor)
     film = sensor.film()
     saved = [int(v) for v in film.crop_offset()], [int(v) for v in film.crop_size()]
+    params = []             # traversed at the first change: an untiled render changes nothing
 
     def set_crop(offset, size) -> None:
-        # size first: the film checks offset + size against its full size on update
-        params["film.crop_size"] = mi.ScalarVector2u(*(int(v) for v in size))
-        params["film.crop_offset"] = mi.ScalarPoint2u(*(int(v) for v in offset))
-        params.update()
+        if not params:
+            params.append(mi.traverse(sensor))
+        params[0]["film.crop_size"] = mi.ScalarVector2u(*(int(v) for v in size))
+        params[0]["film.crop_offset"] = mi.ScalarPoint2u(*(int(v) for v in offset))
+        params[0].update()      # Film.parameters_changed checks and sets the window
 
     try:
         yield set_crop
