@@ -16,7 +16,7 @@ where that is set (it may exceed the total, for a machine with swap).
   (llvm_ad_rgb, 2 cores): N = 1000, 2000 (untiled), 3000, 4000, 5000: 265, 423, 416 to
   442, 698, 799 to 817 MiB, about 25 bytes per film pixel between 3000 and 5000; a
   converted page-4-like scene of 3000 x 2000 sub-samples (``--spp 2 --exposure 2``): 463
-  MiB, 634 MiB with ``--variance``. The estimate exceeds each of these by 19 to 56 %.
+  MiB, 634 MiB with ``--variance``. The estimate exceeds each of these by 18 to 56 %.
 * ``reference``: 150 bytes per sub-sample (sums, squares, outputs; measured about 146 on
   1000 to 3000 pixels a side) + 120 per tile of the port + 100 MiB per extra worker.
 
