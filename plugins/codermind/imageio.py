@@ -62,16 +62,31 @@ def write_exr(path: str | os.PathLike, image: np.ndarray,
         bmp.write(str(tmp), mi.Bitmap.FileFormat.OpenEXR)
 
 
+#: Pixels converted to sRGB bytes at once by :func:`write_png_srgb`.
+PNG_CHUNK = 1 << 20
+
+
 def write_png_srgb(path: str | os.PathLike, rgb: np.ndarray) -> None:
     """Write linear RGB as an 8-bit sRGB PNG atomically (clamped, rounded); one channel
-    (a ``mono`` variant's luminance) is written grey."""
+    (a ``mono`` variant's luminance) is written grey. Converted in bands of rows of about
+    ``PNG_CHUNK`` pixels, so that besides ``rgb`` only the bytes are image-sized. Mitsuba's
+    8-bit conversion dithers with a pattern that starts again in each band: a byte may
+    differ by one level from a whole-image conversion (never more), the same on every run."""
     rgb = np.asarray(rgb, dtype=np.float32)
-    if rgb.ndim == 2 or rgb.shape[2] == 1:
-        rgb = np.repeat(rgb.reshape(rgb.shape[0], rgb.shape[1], 1), 3, axis=2)
-    rgb = np.nan_to_num(rgb[:, :, :3], nan=0.0, posinf=1.0)
-    bmp = mi.Bitmap(np.ascontiguousarray(rgb), mi.Bitmap.PixelFormat.RGB)
-    bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
-    write_png_bytes(path, np.array(bmp, copy=False))
+    if rgb.ndim == 2:
+        rgb = rgb.reshape(rgb.shape[0], rgb.shape[1], 1)
+    h, w = rgb.shape[:2]
+    out = np.empty((h, w, 3), dtype=np.uint8)
+    rows = max(1, PNG_CHUNK // max(w, 1))
+    for y in range(0, h, rows):
+        band = rgb[y:y + rows]
+        if band.shape[2] == 1:
+            band = np.repeat(band, 3, axis=2)
+        band = np.nan_to_num(band[:, :, :3], nan=0.0, posinf=1.0)
+        bmp = mi.Bitmap(np.ascontiguousarray(band), mi.Bitmap.PixelFormat.RGB)
+        bmp = bmp.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
+        out[y:y + rows] = np.array(bmp, copy=False)
+    write_png_bytes(path, out)
 
 
 def write_png_bytes(path: str | os.PathLike, pixels: np.ndarray) -> None:

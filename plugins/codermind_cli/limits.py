@@ -2,13 +2,26 @@
 with its estimate (``codermind: error: ... needs about 9.6 GiB, more than the 6.2 GiB
 allowed ...``); one that will take long gets a one-line warning with the estimated time.
 
-Memory: the estimate of each command (measured, with /usr/bin/time, on renders of 1000 to 3000
-pixels a side: about 250 MiB plus 140 bytes per film pixel for ``render``, 150 per sub-sample
-for ``reference``, plus the pass or tile lists, which grow with ``--spp`` and
-``--complexity``) is compared with the allowed memory: 80 % of the machine's total
-(``/proc/meminfo``), or ``--max-memory GiB`` (else ``CODERMIND_MAX_MEMORY``) where that is
-set (it may exceed the total, for a machine with swap). Time: estimated from a measured rate: a warning above 10
-minutes, a refusal above a year. Workers: at most 4 per core (``--workers``).
+Memory: the estimate of each command is compared with the allowed memory: 80 % of the
+machine's total (``/proc/meminfo``), or ``--max-memory GiB`` (else ``CODERMIND_MAX_MEMORY``)
+where that is set (it may exceed the total, for a machine with swap).
+
+* ``render`` renders a film of more than ``codermind.passes.TILE_BUDGET`` pixels tile by tile,
+  so it needs ``BASE`` + ``RENDER_PER_PIXEL`` per film pixel (the float32 mean, its copy in
+  the EXR writer, the PNG's bytes) + ``RENDER_PER_TILE_PIXEL`` per pixel of the largest tile
+  (Mitsuba's film and image block, the developed tensor, the tile's arrays; the whole film
+  when it is not tiled) + ``RENDER_VARIANCE_PER_PIXEL`` per film pixel with ``--variance``
+  (the sum of squares and its EXR copy) + the pass list. Measured as the peak RSS of
+  ``/usr/bin/time -f "%M KB" codermind render scenes/user/lens.xml -D resx=N -D resy=N --spp 1``
+  (llvm_ad_rgb, 2 cores): N = 1000, 2000 (untiled), 3000, 4000, 5000: 265, 423, 416 to
+  442, 698, 799 to 817 MiB, about 25 bytes per film pixel between 3000 and 5000; a
+  converted page-4-like scene of 3000 x 2000 sub-samples (``--spp 2 --exposure 2``): 463
+  MiB, 634 MiB with ``--variance``. The estimate exceeds each of these by 18 to 56 %.
+* ``reference``: 150 bytes per sub-sample (sums, squares, outputs; measured about 146 on
+  1000 to 3000 pixels a side) + 120 per tile of the port + 100 MiB per extra worker.
+
+Time: estimated from a measured rate: a warning above 10 minutes, a refusal above a year.
+Workers: at most 4 per core (``--workers``).
 """
 
 from __future__ import annotations
@@ -28,8 +41,12 @@ ENV = "CODERMIND_MAX_MEMORY"
 DEFAULT_FRACTION = 0.8
 #: Memory every render starts with (Python, Mitsuba, Dr.Jit's LLVM), bytes.
 BASE = 250 << 20
-#: ``render``: bytes per film pixel (film, accumulation, bitmaps; measured 100 to 135).
-RENDER_PER_PIXEL = 140
+#: ``render``: bytes per film pixel (mean, EXR copy, PNG bytes; measured about 25).
+RENDER_PER_PIXEL = 28
+#: ``render``: bytes per pixel of the largest tile (Mitsuba's film, block and tensor).
+RENDER_PER_TILE_PIXEL = 40
+#: ``render --variance``: bytes per film pixel of the variance (sum of squares, EXR copy).
+RENDER_VARIANCE_PER_PIXEL = 32
 #: ``reference``: bytes per sub-sample (sums, squares, outputs; measured about 146).
 REFERENCE_PER_SAMPLE = 150
 #: A Python list entry (pass plans) and a tile tuple of the port, bytes.
@@ -123,14 +140,19 @@ def worker_count(text: str) -> int:
 
 
 def check_render(scene_path, width: int, height: int, spp: int, runs: int = 1,
-                 pass_spp: int | None = None, max_memory: float | None = None) -> None:
+                 pass_spp: int | None = None, max_memory: float | None = None,
+                 variance: bool = False) -> None:
     """``codermind render``: a film of ``width`` x ``height`` pixels, ``spp`` samples,
-    ``runs`` renders (one per light when a tutorial scene sums its lights)."""
-    from codermind.passes import LANE_BUDGET
+    ``runs`` renders (one per light when a tutorial scene sums its lights), ``variance``
+    also estimated."""
+    from codermind.passes import LANE_BUDGET, tile_size
     pixels = max(int(width), 1) * max(int(height), 1)
     per = min(spp, pass_spp or max(1, LANE_BUDGET // pixels))
     passes = math.ceil(spp / per)
-    need = BASE + RENDER_PER_PIXEL * pixels + PER_PASS * passes
+    tw, th = tile_size((max(int(width), 1), max(int(height), 1)))
+    tile = tw * th
+    need = (BASE + RENDER_PER_PIXEL * pixels + RENDER_PER_TILE_PIXEL * tile
+            + (RENDER_VARIANCE_PER_PIXEL * pixels if variance else 0) + PER_PASS * passes)
     seconds = pixels * spp * runs / RENDER_RATE
     check(f"{scene_path}: rendering {width}x{height} pixels at {spp} spp", need, seconds,
           max_memory)

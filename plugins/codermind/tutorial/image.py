@@ -242,12 +242,16 @@ class TutorialImage:
         return self.rgb8[::-1]
 
 
+#: Film pixels tone-mapped at once by :func:`tutorial_image` (pages 2 and 4).
+TONE_BAND = 1 << 20
+
+
 def tutorial_image(linear: np.ndarray, s: ToneSettings, exposure: float | None = None
                    ) -> TutorialImage:
     """The tutorial's 8-bit image from the linear film (display order; (H, W, >=3) on page
     1, (2H, 2W, >=3) on pages 2 and 4). ``exposure``: E (page 4: required; page 2: default
     1, the tutorial's fixed exposure; page 1: must be None)."""
-    linear = np.asarray(linear)[..., :3].astype(np.float64)
+    linear = np.asarray(linear)[..., :3]
     want = s.film_size
     if linear.shape[:2] != (want[1], want[0]):
         raise ValueError(f"the film is {linear.shape[1]}x{linear.shape[0]}, the page-{s.page} "
@@ -255,13 +259,19 @@ def tutorial_image(linear: np.ndarray, s: ToneSettings, exposure: float | None =
     if s.page == 1:
         if exposure is not None:
             raise ValueError("page 1 has no exposure")
-        tonemapped = linear
+        tonemapped = linear.astype(np.float64)
     else:
         if exposure is None:
             if s.page == 4:
                 raise ValueError("page 4 needs an exposure (auto exposure: see codermind.tutorial.render)")
             exposure = 1.0
-        tonemapped = average_blocks(tone_curve(float(exposure) * linear, s))
+        # per sub-sample, then per 2x2 block: computed in bands of film rows (an even
+        # number, whole blocks), so that the float64 stages are band-sized, not film-sized
+        tonemapped = np.empty((linear.shape[0] // 2, linear.shape[1] // 2, 3))
+        rows = max(2, TONE_BAND // max(linear.shape[1], 1) // 2 * 2)
+        for y in range(0, linear.shape[0], rows):
+            band = float(exposure) * linear[y:y + rows].astype(np.float64)
+            tonemapped[y // 2:(y + rows) // 2] = average_blocks(tone_curve(band, s))
     encoded = tonemapped if s.page == 1 else srgb_encode(tonemapped)
     rgb8 = to_bytes(encoded)
     if s.has_strip:

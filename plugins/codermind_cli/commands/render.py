@@ -1,7 +1,9 @@
 """Render a Mitsuba XML scene (built-in plugins and this package's) to a linear EXR and an
 sRGB PNG written side by side, replaced as a set with OUT.manifest.json
 (:mod:`codermind_cli.outputs`). The samples are rendered in passes with distinct seeds and
-accumulated; Ctrl-C or SIGTERM stops after the current pass and writes what is done.
+accumulated (a film of more than ``codermind.passes.TILE_BUDGET`` pixels tile by tile within
+each pass, in bounded memory); Ctrl-C or SIGTERM stops after the current pass and writes
+what is done.
 
 A scene converted from a tutorial scene file (`codermind convert`; it carries a
 codermind-tutorial comment block) goes through the tutorial's image pipeline instead: the
@@ -102,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     spp = args.spp or scene_spp(scene)
     from ..limits import check_render
     check_render(scene_path, *scene.sensors()[0].film().crop_size(), spp, pass_spp=args.pass_spp,
-                 max_memory=args.max_memory)
+                 max_memory=args.max_memory, variance=settings is not None and args.variance)
 
     if settings is not None:
         from codermind.tutorial import render as tutorial_render
