@@ -140,11 +140,20 @@ def render(scene: Scene, mode: str | Quirks = "strict", seed: int = 0,
             squares[rows] += q
         if progress:
             progress(done, len(tiles))
-    mean = sums / c
+    # in place, in the order of (squares - sums^2 / c) / (c - 1) / c and sums / c: the same
+    # bits as the plain expressions, without their film-sized temporaries
     if scene.page == 4 and c > 1:
-        var = np.maximum(squares - sums * sums / c, 0.0) / (c - 1) / c
+        square_sums = np.multiply(sums, sums)
+        square_sums /= c
+        var = np.subtract(squares, square_sums, out=squares)
+        del square_sums
+        np.maximum(var, 0.0, out=var)
+        var /= c - 1
+        var /= c
     else:
-        var = np.full(mean.shape, np.nan if scene.page == 4 else 0.0, dtype=np.float32)
+        var = np.full(sums.shape, np.nan if scene.page == 4 else 0.0, dtype=np.float32)
+    sums /= c
+    mean = sums
     warnings += _radiance_warnings(scene, mean, xs, ys)
     return _finish(scene, quirks, int(seed), c, e, xs, ys, mean, var, time.perf_counter() - t0,
                    warnings)
@@ -263,6 +272,10 @@ def _run(job: _Job, tiles, workers: int, start_method: str):
         yield from pool.imap(_trace_current, tiles)
 
 
+#: Sub-samples per band of rows in which :func:`_finish` applies the tone curve.
+_BAND_SAMPLES = 1 << 20
+
+
 def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds, warnings) -> RenderResult:
     h, w = ys.size, xs.size
     if scene.page < 4:   # float32 like the original (the sums of float32 values are exact)
@@ -271,12 +284,15 @@ def _finish(scene, quirks, seed, c, e, xs, ys, mean, var, seconds, warnings) -> 
         encoded = tonemapped = mean
         linear, variance = mean[::-1], var[::-1]
     else:
-        per_sample = (tonemap.curve(e * mean, scene.tonemap) if scene.page == 4
-                      else 1.0 - np.exp(mean * -e))
         tonemapped = np.zeros((h, w, 3), dtype=mean.dtype)
-        for a in (0, 1):          # the original's loop order: x offset outer, y offset inner
-            for b in (0, 1):
-                tonemapped += 0.25 * per_sample[:, :, a, b]
+        band = max(1, _BAND_SAMPLES // (4 * w))
+        for r in range(0, h, band):     # in bands of rows: the curve's temporaries stay small
+            rows = slice(r, r + band)
+            per_sample = (tonemap.curve(e * mean[rows], scene.tonemap) if scene.page == 4
+                          else 1.0 - np.exp(mean[rows] * -e))
+            for a in (0, 1):      # the original's loop order: x offset outer, y offset inner
+                for b in (0, 1):
+                    tonemapped[rows] += 0.25 * per_sample[:, :, a, b]
         encoded = tonemap.srgb(tonemapped)
         # (y, x, a, b, ch) -> (y, b, x, a, ch): tutorial sub-sample rows/cols, then flip
         linear = mean.transpose(0, 3, 1, 2, 4).reshape(2 * h, 2 * w, 3)[::-1]

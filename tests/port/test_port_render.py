@@ -483,3 +483,16 @@ def test_workers_started_from_a_forkserver_give_the_forked_image():
     forked = ref.render(scene, rect=rect, workers=2, complexity=1)
     served = ref.render(scene, rect=rect, workers=2, complexity=1, start_method="forkserver")
     assert np.array_equal(forked.linear, served.linear)
+
+
+@pytest.mark.parametrize("page", ["page2", "page4"])
+def test_tone_curve_in_bands_of_rows_gives_the_same_bits(page, monkeypatch):
+    """The finish applies the tone curve in bands of rows to bound its temporaries; the bands
+    must not change a bit (evidence: the same render with one band and with bands of 3 rows)."""
+    scene = ref.parse_scene(ROOT / "scenes" / f"{page}.txt")
+    rect = (200, 150, 240, 181)
+    whole = ref.render(scene, "strict", 3, 2, rect=rect, workers=1)
+    monkeypatch.setattr(driver, "_BAND_SAMPLES", 4 * 40 * 3)
+    banded = ref.render(scene, "strict", 3, 2, rect=rect, workers=1)
+    for name in ("rgb8", "tonemapped", "encoded", "linear", "variance"):
+        assert np.array_equal(getattr(whole, name), getattr(banded, name), equal_nan=True), name
