@@ -115,7 +115,7 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         etest = metrics.exposure_test(mits.probe_exposures, r.port_exposures, th.exposure_alpha,
                                       th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
-                       th.rtol, th.atol)
+                       th.rtol, th.atol, **sample_counts(mits, port), gross_alpha=th.gross_alpha)
     pooled = (pooled_tests(mits, port, r.xml, case.grid, r.defines, case.random, th)
               if case.random else None)
     rows = strip_free_rows(case.grid, case.scene.page)
@@ -128,10 +128,21 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         own, again = r.own, r.again
         t.flip_noise = metrics.flip(own.encoded[rows], again.encoded[rows])[0]
         zn = metrics.z_test(again.linear, again.variance, own.linear, own.variance,
-                            th.alpha, th.rtol, th.atol)
+                            th.alpha, th.rtol, th.atol, **sample_counts(again, own),
+                            gross_alpha=th.gross_alpha)
         t.noise_z = {"pass_rate": zn.pass_rate, "failing_sub_samples": int((~zn.passed_map).sum()),
-                     "max_abs_z": zn.max_z, "z_sd": zn.z_sd}
+                     "max_abs_z": zn.max_z, "z_sd": zn.z_sd, "max_abs_score": zn.max_score,
+                     "gross": zn.gross, "z_gross": zn.z_gross, "calibration": zn.calibration}
     return t
+
+
+def sample_counts(a: sides.SideImage, b: sides.SideImage) -> dict:
+    """The degrees of freedom and sample counts of two sides' variances, for
+    :func:`metrics.z_test` (none where a side estimated no variance: a scene without
+    randomness)."""
+    if a.dof is None or b.dof is None:
+        return {}
+    return {"dof_a": a.dof, "dof_b": b.dof, "n_a": a.spp, "n_b": b.spp}
 
 
 def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
