@@ -204,7 +204,7 @@ def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.
         sd = np.sqrt(var)
         z = np.where(var > 0, diff / np.where(var > 0, sd, 1.0), np.where(within, 0.0, np.inf))
     if not random:
-        score = np.where(within, 0.0, np.sign(a - b) * z)
+        score = np.where(var > 0, np.sign(a - b) * z, 0.0)
     ok = within | ((var > 0) & (z <= z_crit))
     passed = ok.all(axis=2)
     # The z statistics describe the channels whose noise exceeds the float tolerance: a sum of
@@ -230,7 +230,7 @@ class WelchScores:
     """Per channel (:func:`welch_scores`)."""
     var: np.ndarray          #: the variance of a - b used (a side without one takes the other's)
     dof: np.ndarray          #: its Welch-Satterthwaite degrees of freedom
-    score: np.ndarray        #: signed normal score of the t (0 within the float tolerance)
+    score: np.ndarray        #: signed normal score of the t (0 where var is 0)
     one_side: np.ndarray     #: bool: one side's variance was not estimated (noisy channels)
     both: np.ndarray         #: bool: neither side's was, the means differ beyond the tolerance
 
@@ -244,9 +244,11 @@ def welch_scores(a, var_a, b, var_b, dof_a: float, dof_b: float, n_a: float, n_b
     A side whose sd lies within the float tolerance rtol max(|a|, |b|) + atol did not
     estimate its variance (every sample took one branch, or rounding): it takes the other
     side's per-sample variance at its own count, var_other n_other / n_self, and the sum
-    var_other (1 + n_other / n_self) has the other side's degrees of freedom. Where both
-    sides lack a variance the score is 0 (``both`` marks those outside the tolerance: the
-    float tolerance judges them, module doc), as it is within the tolerance."""
+    var_other (1 + n_other / n_self) has the other side's degrees of freedom (a side's own
+    variance, if larger, is kept). Where both sides lack a variance, both keep theirs
+    (``both`` marks those whose means differ beyond the tolerance: the
+    float tolerance judges them, module doc); the score is not cut to 0 within the
+    tolerance (the verdict passes those channels, the calibration needs their scores)."""
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
     if min(dof_a, dof_b, n_a, n_b) <= 0:
@@ -255,17 +257,17 @@ def welch_scores(a, var_a, b, var_b, dof_a: float, dof_b: float, n_a: float, n_b
     tol = rtol * np.maximum(np.abs(a), np.abs(b)) + atol
     within = np.abs(a - b) <= tol
     has_a, has_b = np.sqrt(va) > tol, np.sqrt(vb) > tol
-    va_eff = np.where(has_a, va, np.where(has_b, vb * (n_b / n_a), 0.0))
-    vb_eff = np.where(has_b, vb, np.where(has_a, va * (n_a / n_b), 0.0))
+    only_b, only_a = ~has_a & has_b, has_a & ~has_b
+    va_eff = np.where(only_b, np.maximum(va, vb * (n_b / n_a)), va)
+    vb_eff = np.where(only_a, np.maximum(vb, va * (n_a / n_b)), vb)
     var = va_eff + vb_eff
-    dof = np.where(has_a & has_b, welch_dof(va, vb, dof_a, dof_b),
-                   np.where(has_a, float(dof_a), np.where(has_b, float(dof_b), np.inf)))
+    dof = np.where(only_a, float(dof_a), np.where(only_b, float(dof_b),
+                                                  welch_dof(va, vb, dof_a, dof_b)))
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(var > 0, (a - b) / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)
     score = t_to_z(t, dof)
     both = ~has_a & ~has_b & ~within
-    score = np.where(within, 0.0, score)
-    one_side = (has_a ^ has_b) & (np.sqrt(va + vb) > tol)
+    one_side = (only_a | only_b) & (np.sqrt(va + vb) > tol)
     return WelchScores(var, dof, score, one_side, both)
 
 
