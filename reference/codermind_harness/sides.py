@@ -435,14 +435,28 @@ def either_tie(mits: SideImage, first: SideImage, last: SideImage, sub: int
     return merged, int(tie.sum()), int(take.sum())
 
 
+#: World units: the largest error of the blob meshes that only label sub-samples by object.
+LABEL_BLOB_ERROR = 1.0
+_DEFAULT = re.compile(r'<default\s+name="(blob_tessellate|blob\d+_max_error)"')
+
+
 def object_labels(xml: Path, grid: Grid, defines: dict | None = None
                   ) -> tuple[np.ndarray, list[str]]:
     """Which shape each sub-sample of the grid sees first along the lens centre's ray
     (Mitsuba's intersection; -1: nothing, the sky), and the shapes' names. Pooling the
-    z-test over these groups tests each object as a whole."""
+    z-test over these groups tests each object as a whole. A blob that the XML leaves
+    without a mesh (``blob_tessellate`` false: ``tutorialpath`` intersects its zone field,
+    Mitsuba's own intersection sees nothing there) is labelled through a mesh within
+    :data:`LABEL_BLOB_ERROR` of its surface (a sub-sample at its silhouette may fall on
+    either side; the groups only need to be fixed before the data are seen)."""
     import drjit as dr
     import mitsuba as mi
-    scene, _ = load_mitsuba(xml, grid, dict(defines or {}))
+    defines = dict(defines or {})
+    names = set(_DEFAULT.findall(xml.read_text(encoding="utf-8", errors="replace")))
+    if "blob_tessellate" in names:
+        defines["blob_tessellate"] = "true"
+        defines.update({n: str(LABEL_BLOB_ERROR) for n in names if n.endswith("_max_error")})
+    scene, _ = load_mitsuba(xml, grid, defines)
     sensor = scene.sensors()[0]
     cw, ch = (int(v) for v in sensor.film().crop_size())
     j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")

@@ -186,3 +186,18 @@ def test_constant_split_p_counts_clusters():
     assert metrics.constant_split_p(2, [1, 1, 2, 2], 0.0) == pytest.approx(2 / 6)
     assert metrics.constant_split_p(2, [1, 1.05, 2, 2], 0.1) == pytest.approx(2 / 6)
     assert metrics.constant_split_p(3, [1, 2, 3, 4, 5, 6], 0.0) == 0.0
+
+
+def test_object_labels_see_the_analytic_blob(llvm):
+    """The converted page 4 leaves its blob without a mesh (tutorialpath intersects the
+    zone field); the labels of the pooled-object test see it through a coarse mesh.
+    Evidence kind: our own scene (the blob covers most of the crop where Light0 lands)."""
+    from pathlib import Path
+    from codermind_harness import sides
+    root = Path(__file__).resolve().parents[2] / "scenes"
+    grid = sides.Grid.of(640, 480, 4, (56, 248, 88, 272))
+    lab, names = sides.object_labels(root / "page4.xml", grid, {"spp": "64"})
+    blob = [k for k, n in enumerate(names) if n.endswith("blob")]
+    assert len(blob) == 1
+    share = float((lab == blob[0]).mean())
+    assert 0.7 < share < 0.95 and (lab == -1).any()          # the blob and the sky beside it
