@@ -149,19 +149,21 @@ def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
                  th: Thresholds) -> dict:
     """The pooled difference sum(a - b) / sqrt(sum(var_a + var_b)) over tiles of 16 x 16
     sub-samples and over each object's sub-samples (the shape Mitsuba's lens-centre ray sees
-    first; the sky is one group), as a normal score with Welch-Satterthwaite degrees of
-    freedom, each family at ``Thresholds.pooled_alpha`` Sidak-corrected
+    first; the sky is one group) and each point light's (the first hits it lights:
+    sides.geometry_groups), as a normal score with Welch-Satterthwaite degrees of
+    freedom, each family (tiles; objects and lights) at ``Thresholds.pooled_alpha``
+    Sidak-corrected
     (metrics.pooled_difference: centred for any two unbiased sides, which Stouffer's Z of
     the per-sub-sample z is not)."""
     dofs = [np.inf if s.dof is None else s.dof for s in (mits, port)]
     args = (mits.linear, mits.variance, port.linear, port.variance)
     out = {"tiles": metrics.pooled_difference(*args, metrics.tile_labels(mits.linear.shape[:2]),
                                               "tiles", *dofs, th.pooled_alpha, th.rtol, th.atol)}
-    labels_, names = sides.object_labels(xml, grid, defines)
-    labels_ = np.where(labels_ < 0, len(names), labels_)
-    out["objects"] = metrics.pooled_difference(*args, labels_, "objects", *dofs,
-                                               th.pooled_alpha, th.rtol, th.atol,
-                                               names=names + ["sky"])
+    groups = sides.geometry_groups(xml, grid, defines)
+    labels_ = np.where(groups.labels < 0, len(groups.names), groups.labels)
+    out["objects"] = metrics.pooled_difference(
+        *args, labels_, "objects", *dofs, th.pooled_alpha, th.rtol, th.atol,
+        names=groups.names + ["sky"] + groups.light_names, masks=groups.lit)
     return {k: asdict(v) for k, v in out.items()}
 
 

@@ -642,12 +642,14 @@ def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED
 def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: str,
                       dof_a: float, dof_b: float, alpha: float = POOLED_ALPHA,
                       rtol: float = RTOL, atol: float = ATOL, min_count: int = 16,
-                      names=None) -> PooledTest:
+                      names=None, masks=None) -> PooledTest:
     """The pooled difference of each group (``labels``: int (H, W), one group per value,
-    negative: none) and channel, over its noisy channels (as :func:`signed_z`):
+    negative: none; ``masks``: more groups, each a bool (H, W), which may overlap them, named
+    ``names[max label + 1 + k]``) and channel, over its noisy channels (as :func:`signed_z`):
     t = sum(a - b) / sqrt(sum(var_a + var_b)), as a normal score with the Welch-Satterthwaite
     degrees of freedom of that variance sum (each side's ``dof``); two-sided, Sidak-corrected
-    over every group and channel with at least ``min_count`` noisy values.
+    over every group and channel with at least ``min_count`` noisy values (conservative for
+    overlapping groups).
 
     Unlike Stouffer's Z of the per-sub-sample z (:func:`stouffer`), whose null mean is 0 only
     when both sides' sub-sample means are distributed alike (a side whose mean and variance
@@ -658,9 +660,11 @@ def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: st
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
     noisy = noisy_channels(a, va, b, vb, rtol, atol)
     lab = np.asarray(labels)
+    groups = [(g, lab == g) for g in np.unique(lab[lab >= 0])]
+    first = int(lab.max()) + 1 if lab.size and (lab >= 0).any() else 0
+    groups += [(first + k, np.asarray(m, dtype=bool)) for k, m in enumerate(masks or [])]
     out, where = [], []
-    for g in np.unique(lab[lab >= 0]):
-        m = lab == g
+    for g, m in groups:
         for c in range(a.shape[2]):
             k = noisy[..., c] & m
             n = int(k.sum())
