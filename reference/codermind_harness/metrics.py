@@ -617,6 +617,8 @@ class PooledTest:
     z_sd: float | None         #: sd of the pooled Z (about 1 under H0)
     failing: list              #: [(group, channel, Z, n)] of the failing tests, worst first
     calibration: dict | None = None   #: of the pooled Z (:func:`calibration`)
+    every: list | None = None  #: named groups (objects, lights): [(group, channel, Z, n)] of
+                               #: every test made
 
 
 def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED_ALPHA,
@@ -691,9 +693,11 @@ def _pooled_verdict(out: list, where: list, kind: str, alpha: float, names) -> P
     bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
            for (g, c, n), x in zip(where, out) if abs(x) > crit]
     bad.sort(key=lambda t: -abs(t[2]))
+    every = None if names is None else [(names[int(g)], "RGB"[c], float(x), int(n))
+                                        for (g, c, n), x in zip(where, out)]
     return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
                       float(np.abs(zs).max()) if tests else None,
-                      float(zs.std()) if tests > 1 else None, bad[:10], calibration(zs))
+                      float(zs.std()) if tests > 1 else None, bad[:10], calibration(zs), every)
 
 
 def tile_labels(shape: tuple[int, int], tile: int = TILE) -> np.ndarray:
