@@ -115,7 +115,8 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         etest = metrics.exposure_test(mits.probe_exposures, r.port_exposures, th.exposure_alpha,
                                       th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
-                       th.rtol, th.atol, **sample_counts(mits, port), gross_alpha=th.gross_alpha)
+                       th.rtol, th.atol, **sample_counts(mits, port), gross_alpha=th.gross_alpha,
+                       gross_effect=th.gross_effect)
     pooled = (pooled_tests(mits, port, r.xml, case.grid, r.defines, case.random, th)
               if case.random else None)
     rows = strip_free_rows(case.grid, case.scene.page)
@@ -129,7 +130,7 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         t.flip_noise = metrics.flip(own.encoded[rows], again.encoded[rows])[0]
         zn = metrics.z_test(again.linear, again.variance, own.linear, own.variance,
                             th.alpha, th.rtol, th.atol, **sample_counts(again, own),
-                            gross_alpha=th.gross_alpha)
+                            gross_alpha=th.gross_alpha, gross_effect=th.gross_effect)
         t.noise_z = {"pass_rate": zn.pass_rate, "failing_sub_samples": int((~zn.passed_map).sum()),
                      "max_abs_z": zn.max_z, "z_sd": zn.z_sd, "max_abs_score": zn.max_score,
                      "gross": zn.gross, "z_gross": zn.z_gross, "calibration": zn.calibration}

@@ -21,6 +21,7 @@ class Thresholds:
     #: family-wise level of the gross bound (metrics.GROSS_ALPHA): a sub-sample beyond it
     #: fails the scene whatever the pass rate
     gross_alpha: float = metrics.GROSS_ALPHA
+    gross_effect: float = metrics.GROSS_EFFECT   #: per-sample sds of a gross difference
     pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
     #: random scenes: FLIP <= floor (1 + k0 + k / sqrt(pixels)) + eps (metrics.flip_limit)
     flip_k: float = metrics.FLIP_K
@@ -75,9 +76,10 @@ def gross_failure(z: metrics.ZTest) -> str:
     """A disagreement far beyond noise, which no pass-rate allowance excuses."""
     worst = "inf" if z.max_score is None and z.noisy_tests == 0 else (
         f"{z.max_score:.3g}" if z.max_score is not None else "inf")
-    return (f"z-test: {z.gross_sub_samples} sub-samples ({z.gross} channels) beyond the gross "
-            f"bound {z.z_gross:.3g} (Sidak at {z.gross_alpha:g} family-wise over {z.tests} "
-            f"tests; largest |score| {worst})")
+    return (f"z-test: {z.gross_sub_samples} sub-samples ({z.gross} channels) differ grossly: "
+            f"score beyond {z.z_gross:.3g} (Sidak at {z.gross_alpha:g} family-wise over "
+            f"{z.tests} tests) and difference beyond {z.gross_effect:g} per-sample sds "
+            f"(largest |score| {worst})")
 
 
 def exposure_failure(e: metrics.ExposureTest) -> str:
