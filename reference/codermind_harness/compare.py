@@ -16,8 +16,9 @@ For each scene (:func:`compare_scene`):
    (var_a + var_b) / (ref^2 + 0.01));
 5. page 4, the exposure test: each side's own auto exposure (its probe grid, its random
    numbers) for ``exposure_seeds`` seeds (seed, seed + 1, ...), compared by Welch's t-test
-   (:func:`metrics.exposure_test`, level ``Thresholds.exposure_alpha``), whatever exposure
-   the images use;
+   (:func:`metrics.exposure_test`, level ``Thresholds.exposure_alpha``; where one side's
+   exposure is the same for every seed and the other's is not, also by an exact
+   permutation test of that), whatever exposure the images use;
 6. the verdict against :class:`Thresholds` (every test must pass; :mod:`.verdict`), a
    heat-map PNG and a JSON record (:mod:`.report`).
 

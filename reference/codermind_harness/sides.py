@@ -15,7 +15,8 @@ pixels; Mitsuba renders the rectangle (a film crop) and the grid is taken from i
 Page 4 also yields each side's auto exposure for a list of seeds (:func:`port_exposures`;
 ``render_mitsuba(..., exposure_seeds=...)``): the port's from its probe grid, Mitsuba's from
 the converted XML's ``probes`` sensor traced with its integrator
-(``codermind.tutorial.render.probe_exposure``), lights summed as for the image.
+(``codermind.tutorial.render.probe_exposure``), lights summed as for the image, the
+material roulette's diffuse event drawn as the original draws it (``probe_integrator``).
 
 A scene without randomness (no lens blur, every roulette event certain:
 ``codermind.tutorial.model``) is rendered with one sample on both sides; its variance is 0
