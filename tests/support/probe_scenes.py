@@ -1,4 +1,4 @@
-"""Small page-4 tutorial scenes for the auto-exposure probes (tests/tutorial/test_probes.py):
+"""Small page-4 tutorial scenes for the auto-exposure probes (tests/harness/test_compare_probes.py):
 a glass sphere, a half mirror, and random-ish scenes drawn from a seed (spheres with random
 tutorial materials in front of the camera, one or two lights, a cube map of random colours)."""
 
