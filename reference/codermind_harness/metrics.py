@@ -49,9 +49,9 @@ With each side's degrees of freedom and sample count (a random scene: ``dof_a``,
   second condition does not grow with the sample count, as a score does for a fixed bias:
   the pass-rate allowance stays for disagreements that are significant but small against
   one ray's noise, such as page 4's blob (its exact surface against the original's float32
-  roots under sharp highlights: scores up to 7.1 at 64 spp, effect 1.3 sd, measured on the
-  Light0 crop and on the bounding box of Light0's light), while 93 sub-samples at |z| up
-  to 192 at 64 spp (effect about 34 sd) fail.
+  roots under sharp highlights, at 64 spp: scores up to 7.1 on the bounding box of Light0's
+  light, effects up to 1.4 sd on the crop where Light0 lands), while 93 sub-samples at |z|
+  up to 192 at 64 spp (effect about 34 sd) fail.
 
 **Calibration** (:func:`calibration`): under the null the scores are standard normal and
 their two-sided p-values uniform; each test reports the scores' sd, a robust sd
