@@ -30,7 +30,10 @@ SCENES = ROOT / "scenes"
 GRIDS = {"page1": ("page1", None, 4), "page4-marble": ("page4", (392, 130, 440, 170), 1),
          "page4-blob": ("page4", (300, 250, 332, 274), 1),
          # where Light0 lands, on the blob (it lights 0.2 % of the frame, 36 % of this crop)
-         "page4-light0": ("page4", (56, 248, 88, 272), 1)}
+         "page4-light0": ("page4", (56, 248, 88, 272), 1),
+         # the bounding box of every sub-sample whose first hit Light0 lights: its lit
+         # group (sides.geometry_groups) is the full frame's
+         "page4-light0-area": ("page4", (54, 97, 243, 348), 1)}
 
 
 def scale_rgb(old: str, factor: float) -> str:
@@ -82,6 +85,9 @@ def cases():
         out.append(("light intensity", f"+{pct} %, Light1", "page4-marble",
                     rgb_edit(r'<rgb name="intensity" value="([^"]+)"/>  <!-- Intensity, line 114',
                              f), {}))
+    for gname in ("page4-light0", "page4-light0-area"):
+        out.append(("light intensity", "+3 %, Light0", gname,
+                    rgb_edit(r'<rgb name="intensity" value="([^"]+)"', 1.03), {}))
     out.append(("refractive index", "2 -> 1.9", "page4-blob",
                 value_edit("density", "2", "1.9"), {}))
     for new, label in (("0.09", "-10 %"), ("0.11", "+10 %")):
@@ -99,6 +105,7 @@ def cases():
     out.append(("none (control)", "-", "page4-marble", None, {}))
     out.append(("none (control)", "-", "page4-blob", None, {}))
     out.append(("none (control)", "-", "page4-light0", None, {}))
+    out.append(("none (control)", "-", "page4-light0-area", None, {}))
     return out
 
 

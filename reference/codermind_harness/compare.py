@@ -16,8 +16,9 @@ For each scene (:func:`compare_scene`):
    (var_a + var_b) / (ref^2 + 0.01));
 5. page 4, the exposure test: each side's own auto exposure (its probe grid, its random
    numbers) for ``exposure_seeds`` seeds (seed, seed + 1, ...), compared by Welch's t-test
-   (:func:`metrics.exposure_test`, level ``Thresholds.exposure_alpha``), whatever exposure
-   the images use;
+   (:func:`metrics.exposure_test`, level ``Thresholds.exposure_alpha``; where one side's
+   exposure is the same for every seed and the other's is not, also by an exact
+   permutation test of that), whatever exposure the images use;
 6. the verdict against :class:`Thresholds` (every test must pass; :mod:`.verdict`), a
    heat-map PNG and a JSON record (:mod:`.report`).
 
@@ -130,7 +131,8 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         etest = metrics.exposure_test(mits.probe_exposures, r.port_exposures, th.exposure_alpha,
                                       th.rtol, th.atol)
     z = metrics.z_test(mits.linear, mits.variance, port.linear, port.variance, th.alpha,
-                       th.rtol, th.atol)
+                       th.rtol, th.atol, **sample_counts(mits, port), gross_alpha=th.gross_alpha,
+                       gross_effect=th.gross_effect)
     pooled = (pooled_tests(mits, port, r.xml, case.grid, r.defines, case.random, th)
               if case.random else None)
     rows = strip_free_rows(case.grid, case.scene.page)
@@ -143,29 +145,42 @@ def measure(case: Case, opt: Options, r: Renders) -> Tests:
         own, again = r.own, r.again
         t.flip_noise = metrics.flip(own.encoded[rows], again.encoded[rows])[0]
         zn = metrics.z_test(again.linear, again.variance, own.linear, own.variance,
-                            th.alpha, th.rtol, th.atol)
+                            th.alpha, th.rtol, th.atol, **sample_counts(again, own),
+                            gross_alpha=th.gross_alpha, gross_effect=th.gross_effect)
         t.noise_z = {"pass_rate": zn.pass_rate, "failing_sub_samples": int((~zn.passed_map).sum()),
-                     "max_abs_z": zn.max_z, "z_sd": zn.z_sd}
+                     "max_abs_z": zn.max_z, "z_sd": zn.z_sd, "max_abs_score": zn.max_score,
+                     "gross": zn.gross, "z_gross": zn.z_gross, "calibration": zn.calibration}
     return t
+
+
+def sample_counts(a: sides.SideImage, b: sides.SideImage) -> dict:
+    """The degrees of freedom and sample counts of two sides' variances, for
+    :func:`metrics.z_test` (none where a side estimated no variance: a scene without
+    randomness)."""
+    if a.dof is None or b.dof is None:
+        return {}
+    return {"dof_a": a.dof, "dof_b": b.dof, "n_a": a.spp, "n_b": b.spp}
 
 
 def pooled_tests(mits, port, xml: Path, grid: Grid, defines: dict, random: bool,
                  th: Thresholds) -> dict:
     """The pooled difference sum(a - b) / sqrt(sum(var_a + var_b)) over tiles of 16 x 16
     sub-samples and over each object's sub-samples (the shape Mitsuba's lens-centre ray sees
-    first; the sky is one group), as a normal score with Welch-Satterthwaite degrees of
-    freedom, each family at ``Thresholds.pooled_alpha`` Sidak-corrected
+    first; the sky is one group) and each point light's (the first hits it lights:
+    sides.geometry_groups), as a normal score with Welch-Satterthwaite degrees of
+    freedom, each family (tiles; objects and lights) at ``Thresholds.pooled_alpha``
+    Sidak-corrected
     (metrics.pooled_difference: centred for any two unbiased sides, which Stouffer's Z of
     the per-sub-sample z is not)."""
     dofs = [np.inf if s.dof is None else s.dof for s in (mits, port)]
     args = (mits.linear, mits.variance, port.linear, port.variance)
     out = {"tiles": metrics.pooled_difference(*args, metrics.tile_labels(mits.linear.shape[:2]),
                                               "tiles", *dofs, th.pooled_alpha, th.rtol, th.atol)}
-    labels_, names = sides.object_labels(xml, grid, defines)
-    labels_ = np.where(labels_ < 0, len(names), labels_)
-    out["objects"] = metrics.pooled_difference(*args, labels_, "objects", *dofs,
-                                               th.pooled_alpha, th.rtol, th.atol,
-                                               names=names + ["sky"])
+    groups = sides.geometry_groups(xml, grid, defines)
+    labels_ = np.where(groups.labels < 0, len(groups.names), groups.labels)
+    out["objects"] = metrics.pooled_difference(
+        *args, labels_, "objects", *dofs, th.pooled_alpha, th.rtol, th.atol,
+        names=groups.names + ["sky"] + groups.light_names, masks=groups.lit)
     return {k: asdict(v) for k, v in out.items()}
 
 

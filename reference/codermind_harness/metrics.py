@@ -16,6 +16,48 @@ The summary statistics of z (mean, sd, max) are taken over the channels whose no
 exceeds that tolerance (a side that sums equal values in another order reports a variance
 of 1e-20, whose z means nothing).
 
+With each side's degrees of freedom and sample count (a random scene: ``dof_a``, ``n_a``,
+...), three more things (:func:`welch_scores`):
+
+* **a variance that cannot be estimated**: where every sample of a side took the same branch
+  its variance is 0 (sd within the float tolerance) although its distribution is not a
+  point: a Bernoulli(p) radiance gives 16 equal samples with probability (1 - p)^16, 0.44 at
+  p = 0.05. Treating that side's mean as exact (z = d / sd_other) is a one-sample test that
+  the data do not support. Under the null both sides sample one distribution, so such a
+  side takes the other side's per-sample variance at its own count (var_b n_b / n_a) and the
+  test has the other side's degrees of freedom. Where neither side varies and the means
+  differ beyond the float tolerance, the channel fails as in a scene without randomness:
+  if it is random after all, every unit of each side took one value and the values differ,
+  whose exact (Fisher, permutation) probability under the null, 1 / C(u_a + u_b, u_a) for
+  u = dof + 1 units a side (3e-17 at 16 pass means against 64 rays), lies beyond any
+  bound here; it counts against the pass rate, not the gross bound (a pixel that no sample
+  varies is deterministic, and float-order disagreements at silhouettes are what the
+  pass-rate allowance is for);
+* **t-aware scores**: the ratio is a Welch t (each variance from dof + 1 units, Mitsuba's
+  16 pass means), so it is turned into the normal score of its own p-value with
+  Welch-Satterthwaite degrees of freedom (:func:`t_to_z`). At 15 degrees of freedom a t of
+  5.4 (the Sidak bound of a page-4 frame) has p = 7e-5, not 3e-9: the per-sub-sample test's
+  pass-rate allowance (``Thresholds.pass_rate``) absorbs that, the scores below do not
+  need it;
+* **the gross rule** (``GROSS_ALPHA``, ``GROSS_EFFECT``): a channel that is both certain
+  and large fails the scene whatever the pass rate: its score lies beyond the Sidak bound
+  of a family-wise level of 1e-6 over all the tests (about 7.3 for a 640 x 480 page 4; on
+  t-aware scores, so heavy-tailed variance estimates from 16 passes do not cross it by
+  chance: under the null it adds at most 1e-6 to a scene's false-alarm rate), and the two
+  means differ by more than ``GROSS_EFFECT`` = 3 per-sample sds (sqrt of the mean of the
+  two sides' per-sample variances, n var): the two sides' single rays barely overlap. The
+  second condition does not grow with the sample count, as a score does for a fixed bias:
+  the pass-rate allowance stays for disagreements that are significant but small against
+  one ray's noise, such as page 4's blob (its exact surface against the original's float32
+  roots under sharp highlights, at 64 spp: scores up to 7.1 on the bounding box of Light0's
+  light, effects up to 1.4 sd on the crop where Light0 lands), while 93 sub-samples at |z|
+  up to 192 at 64 spp (effect about 34 sd) fail.
+
+**Calibration** (:func:`calibration`): under the null the scores are standard normal and
+their two-sided p-values uniform; each test reports the scores' sd, a robust sd
+(1.4826 x the median absolute deviation, which a few gross outliers do not move) and the
+p-values' histogram in ``P_BINS`` equal bins.
+
 **FLIP** (:func:`flip`): NVIDIA's ``flip-evaluator`` (LDR-FLIP, default 67 pixels per degree)
 on sRGB-encoded images in [0, 1]. Its Python API prints a message and exits the process on
 some bad inputs (a path that does not exist, a bad parameter), raises on others (a size
@@ -32,7 +74,17 @@ seeds on each side, Welch's two-sample t-test (unequal variances, Welch-Satterth
 of freedom) of the two means at level ``EXPOSURE_ALPHA`` (two-sided). One test per scene: the
 level is 0.001 so that a run over ten scenes falsely fails with about the image tests'
 family-wise 0.01. When neither side's E varies beyond the float tolerance (a scene without
-randomness), the means must agree within rtol |E| + atol instead.
+randomness), the means must agree within rtol |E| + atol instead. When exactly one side's E
+does not vary (sd 0), Welch's t degenerates to the one-sample t of the other side's mean
+against that constant (df = n - 1 of the varying side, which the Welch-Satterthwaite formula
+gives exactly): a valid test of the means, but blind to what the constant itself says.
+Under the null both sides draw E from one distribution, so a side whose E is the same for
+every seed while the other's varies is itself a disagreement (probes that do not draw as the
+original's do): the exact permutation probability that n_a of the pooled n_a + n_b
+estimates, split at random, are all equal (within the float tolerance) is
+sum_v C(c_v, n_a) / C(n_a + n_b, n_a) over the pooled values' clusters of sizes c_v
+(1 / 12870 for 8 + 8 distinct values), no distribution assumed. In that case both tests are
+made, each at ``alpha`` / 2.
 """
 
 from __future__ import annotations
@@ -51,6 +103,13 @@ ATOL = 1e-4
 REL_MSE_EPS = 1e-2
 #: Two-sided level of the exposure test (one test per scene, see the module doc).
 EXPOSURE_ALPHA = 1e-3
+#: Family-wise level of the gross rule: a t-aware score beyond its Sidak bound, with a
+#: difference beyond GROSS_EFFECT per-sample sds, fails a scene whatever its pass rate
+#: (module doc).
+GROSS_ALPHA = 1e-6
+GROSS_EFFECT = 3.0
+#: Bins of the p-value histograms (calibration).
+P_BINS = 10
 
 
 #: FLIP of a random scene is judged against its noise floor F0 (the port against itself with
@@ -93,6 +152,15 @@ class ZTest:
     passed_map: np.ndarray     #: bool (H, W)
     z_map: np.ndarray          #: float (H, W): largest |z| over the channels (0 within the
                                #: float tolerance, inf: a noiseless channel outside it)
+    gross_alpha: float = GROSS_ALPHA
+    gross_effect: float = GROSS_EFFECT   #: per-sample sds a gross difference exceeds
+    z_gross: float = math.inf  #: |score| beyond which a large difference fails (module doc)
+    gross: int = 0             #: noisy channels beyond it and beyond the effect size
+    gross_sub_samples: int = 0
+    max_score: float | None = None   #: largest |t-aware score| among noisy tests
+    zero_variance: dict | None = None   #: tests where one side had no variance (noisy) /
+                                        #: neither had one and the means differ
+    calibration: dict | None = None     #: of the scores (:func:`calibration`)
 
 
 def sidak_alpha(alpha: float, tests: int) -> float:
@@ -101,8 +169,17 @@ def sidak_alpha(alpha: float, tests: int) -> float:
 
 
 def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.ndarray,
-           alpha: float = ALPHA, rtol: float = RTOL, atol: float = ATOL) -> ZTest:
-    """Two-sample z-test of two (H, W, 3) renders with the variances of their means."""
+           alpha: float = ALPHA, rtol: float = RTOL, atol: float = ATOL,
+           dof_a: float | None = None, dof_b: float | None = None,
+           n_a: float | None = None, n_b: float | None = None,
+           gross_alpha: float = GROSS_ALPHA, gross_effect: float = GROSS_EFFECT) -> ZTest:
+    """Two-sample z-test of two (H, W, 3) renders with the variances of their means.
+
+    With both sides' degrees of freedom and sample counts (``dof_*``, ``n_*``; a random
+    scene), a side whose variance could not be estimated takes the other's, and the gross
+    bound and the calibration use t-aware scores (module doc, :func:`welch_scores`); without
+    them (a scene without randomness) the scores are the z themselves and a noiseless channel
+    outside the float tolerance is infinitely far out."""
     from scipy.special import ndtri
     a, b = (np.asarray(x, dtype=np.float64) for x in (mean_a, mean_b))
     va, vb = (np.asarray(x, dtype=np.float64) for x in (var_a, var_b))
@@ -122,24 +199,110 @@ def z_test(mean_a: np.ndarray, var_a: np.ndarray, mean_b: np.ndarray, var_b: np.
     level = sidak_alpha(alpha, tests)
     z_crit = float(-ndtri(level / 2.0))
     diff = np.abs(a - b)
-    var = va + vb
     tol = rtol * np.maximum(np.abs(a), np.abs(b)) + atol
     within = diff <= tol
+    random = None not in (dof_a, dof_b, n_a, n_b)
+    zero = None
+    if random:
+        ws = welch_scores(a, va, b, vb, dof_a, dof_b, n_a, n_b, rtol, atol)
+        var, score = ws.var, ws.score
+        zero = {"one_side": int(ws.one_side.sum()), "both_sides": int(ws.both.sum())}
+    else:
+        var = va + vb
     with np.errstate(divide="ignore", invalid="ignore"):
         sd = np.sqrt(var)
         z = np.where(var > 0, diff / np.where(var > 0, sd, 1.0), np.where(within, 0.0, np.inf))
+    if not random:
+        score = np.where(var > 0, np.sign(a - b) * z, 0.0)
     ok = within | ((var > 0) & (z <= z_crit))
     passed = ok.all(axis=2)
     # The z statistics describe the channels whose noise exceeds the float tolerance: a sum of
     # equal values in another order has a variance of 1e-20 or so, whose z means nothing.
-    noisy = sd > tol
-    zs = ((a - b) / np.where(noisy, sd, 1.0))[noisy]
+    noisy = np.sqrt(va + vb) > tol
+    zs = ((a - b) / np.where(noisy, np.sqrt(va + vb), 1.0))[noisy]
+    z_gross = float(-ndtri(sidak_alpha(gross_alpha, tests) / 2.0))
+    far = noisy & ~within & (np.abs(score) > z_gross)
+    if random:      # and large: beyond gross_effect per-sample sds (module doc)
+        per_sample = np.sqrt(0.5 * (n_a * ws.va_eff + n_b * ws.vb_eff))
+        far &= diff > gross_effect * per_sample
+    scores = score[noisy]
     return ZTest(float(passed.mean()), float(ok.mean()), tests, float(level), z_crit,
                  int((~noisy).all(axis=2).sum()), int(zs.size),
                  float(np.abs(zs).max()) if zs.size else None,
                  float(zs.std()) if zs.size > 1 else None,
                  float(zs.mean()) if zs.size else None,
-                 passed, np.where(within, 0.0, z).max(axis=2))
+                 passed, np.where(within, 0.0, z).max(axis=2), float(gross_alpha),
+                 float(gross_effect), z_gross,
+                 int(far.sum()), int(far.any(axis=2).sum()),
+                 float(np.abs(scores).max()) if scores.size else None, zero,
+                 calibration(scores))
+
+
+@dataclass
+class WelchScores:
+    """Per channel (:func:`welch_scores`)."""
+    var: np.ndarray          #: the variance of a - b used (a side without one takes the other's)
+    dof: np.ndarray          #: its Welch-Satterthwaite degrees of freedom
+    score: np.ndarray        #: signed normal score of the t (0 where var is 0)
+    va_eff: np.ndarray       #: side a's part of ``var``
+    vb_eff: np.ndarray       #: side b's part of ``var``
+    one_side: np.ndarray     #: bool: one side's variance was not estimated (noisy channels)
+    both: np.ndarray         #: bool: neither side's was, the means differ beyond the tolerance
+
+
+def welch_scores(a, var_a, b, var_b, dof_a: float, dof_b: float, n_a: float, n_b: float,
+                 rtol: float = RTOL, atol: float = ATOL) -> WelchScores:
+    """The signed t-aware score of a - b per channel, valid where a side's variance is 0.
+
+    ``var_*``: variances of the means, each estimated with ``dof_*`` degrees of freedom from
+    ``dof_* + 1`` units (Mitsuba: pass means; the port: rays) of ``n_*`` samples in all.
+    A side whose sd lies within the float tolerance rtol max(|a|, |b|) + atol did not
+    estimate its variance (every sample took one branch, or rounding): it takes the other
+    side's per-sample variance at its own count, var_other n_other / n_self, and the sum
+    var_other (1 + n_other / n_self) has the other side's degrees of freedom (a side's own
+    variance, if larger, is kept). Where both sides lack a variance, both keep theirs
+    (``both`` marks those whose means differ beyond the tolerance: the
+    float tolerance judges them, module doc); the score is not cut to 0 within the
+    tolerance (the verdict passes those channels, the calibration needs their scores)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
+    if min(dof_a, dof_b, n_a, n_b) <= 0:
+        raise ValueError(f"welch_scores: degrees of freedom and counts must be > 0, got "
+                         f"{dof_a}, {dof_b}, {n_a}, {n_b}")
+    tol = rtol * np.maximum(np.abs(a), np.abs(b)) + atol
+    within = np.abs(a - b) <= tol
+    has_a, has_b = np.sqrt(va) > tol, np.sqrt(vb) > tol
+    only_b, only_a = ~has_a & has_b, has_a & ~has_b
+    va_eff = np.where(only_b, np.maximum(va, vb * (n_b / n_a)), va)
+    vb_eff = np.where(only_a, np.maximum(vb, va * (n_a / n_b)), vb)
+    var = va_eff + vb_eff
+    dof = np.where(only_a, float(dof_a), np.where(only_b, float(dof_b),
+                                                  welch_dof(va, vb, dof_a, dof_b)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(var > 0, (a - b) / np.sqrt(np.where(var > 0, var, 1.0)), 0.0)
+    score = t_to_z(t, dof)
+    both = ~has_a & ~has_b & ~within
+    one_side = (only_a | only_b) & (np.sqrt(va + vb) > tol)
+    return WelchScores(var, dof, score, va_eff, vb_eff, one_side, both)
+
+
+def calibration(scores, bins: int = P_BINS) -> dict | None:
+    """The calibration of signed scores that are standard normal under the null: count,
+    mean, sd, robust sd (1.4826 median |score - median|) and the histogram of the two-sided
+    p-values in ``bins`` equal bins on [0, 1] (flat under the null; the first bin holds
+    what a disagreement adds). None without scores."""
+    from scipy.special import ndtr
+    s = np.asarray(scores, np.float64).ravel()
+    s = s[np.isfinite(s)]
+    if s.size == 0:
+        return None
+    med = float(np.median(s))
+    p = np.clip(2.0 * ndtr(-np.abs(s)), 0.0, 1.0)
+    hist = np.histogram(p, bins=bins, range=(0.0, 1.0))[0]
+    return {"n": int(s.size), "mean": float(s.mean()),
+            "sd": float(s.std()) if s.size > 1 else None,
+            "sd_robust": float(1.482602218505602 * np.median(np.abs(s - med))),
+            "p_hist": [int(x) for x in hist], "p_hist_expected": s.size / bins}
 
 
 def rel_mse(test: np.ndarray, ref: np.ndarray, eps: float = REL_MSE_EPS) -> float:
@@ -205,6 +368,8 @@ class ExposureTest:
     t: float | None            #: Welch's t (None: float tolerance)
     df: float | None
     p: float | None            #: two-sided p-value
+    p_spread: float | None = None   #: one side constant, the other not: the exact
+                                    #: permutation p-value of that (module doc); else None
 
 
 def exposure_test(a, b, alpha: float = EXPOSURE_ALPHA, rtol: float = RTOL,
@@ -225,11 +390,28 @@ def exposure_test(a, b, alpha: float = EXPOSURE_ALPHA, rtol: float = RTOL,
     if sa <= tol and sb <= tol:
         return ExposureTest(abs(ma - mb) <= tol, "float tolerance", t=None, df=None, p=None,
                             **common)
-    va, vb = sa * sa / a.size, sb * sb / b.size
+    # a side within the float tolerance counts as constant: sd exactly 0 in its terms
+    va = sa * sa / a.size if sa > tol else 0.0
+    vb = sb * sb / b.size if sb > tol else 0.0
     t = (ma - mb) / math.sqrt(va + vb)
     df = (va + vb) ** 2 / (va * va / (a.size - 1) + vb * vb / (b.size - 1))
     p = float(2.0 * student_t.sf(abs(t), df))
-    return ExposureTest(p >= alpha, "welch", t=float(t), df=float(df), p=p, **common)
+    if va > 0 and vb > 0:
+        return ExposureTest(p >= alpha, "welch", t=float(t), df=float(df), p=p, **common)
+    constant = a if va == 0 else b
+    spread = constant_split_p(constant.size, np.concatenate([a, b]), tol)
+    return ExposureTest(p >= alpha / 2 and spread >= alpha / 2, "welch + spread", t=float(t),
+                        df=float(df), p=p, p_spread=spread, **common)
+
+
+def constant_split_p(k: int, pooled, tol: float) -> float:
+    """The probability that ``k`` of the ``pooled`` values drawn at random without
+    replacement are all equal within ``tol`` (values chained by gaps <= tol are one
+    value): sum over the clusters of C(size, k) / C(len, k)."""
+    x = np.sort(np.asarray(pooled, np.float64).ravel())
+    breaks = np.flatnonzero(np.diff(x) > tol)
+    sizes = np.diff(np.concatenate([[0], breaks + 1, [x.size]]))
+    return float(sum(math.comb(int(c), k) for c in sizes) / math.comb(x.size, k))
 
 
 # -- a reference image as the other side (``codermind compare --reference``) ----------------
@@ -449,6 +631,9 @@ class PooledTest:
     max_abs_z: float | None
     z_sd: float | None         #: sd of the pooled Z (about 1 under H0)
     failing: list              #: [(group, channel, Z, n)] of the failing tests, worst first
+    calibration: dict | None = None   #: of the pooled Z (:func:`calibration`)
+    every: list | None = None  #: named groups (objects, lights): [(group, channel, Z, n)] of
+                               #: every test made
 
 
 def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED_ALPHA,
@@ -474,12 +659,14 @@ def stouffer(z: np.ndarray, labels: np.ndarray, kind: str, alpha: float = POOLED
 def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: str,
                       dof_a: float, dof_b: float, alpha: float = POOLED_ALPHA,
                       rtol: float = RTOL, atol: float = ATOL, min_count: int = 16,
-                      names=None) -> PooledTest:
+                      names=None, masks=None) -> PooledTest:
     """The pooled difference of each group (``labels``: int (H, W), one group per value,
-    negative: none) and channel, over its noisy channels (as :func:`signed_z`):
+    negative: none; ``masks``: more groups, each a bool (H, W), which may overlap them, named
+    ``names[max label + 1 + k]``) and channel, over its noisy channels (as :func:`signed_z`):
     t = sum(a - b) / sqrt(sum(var_a + var_b)), as a normal score with the Welch-Satterthwaite
     degrees of freedom of that variance sum (each side's ``dof``); two-sided, Sidak-corrected
-    over every group and channel with at least ``min_count`` noisy values.
+    over every group and channel with at least ``min_count`` noisy values (conservative for
+    overlapping groups).
 
     Unlike Stouffer's Z of the per-sub-sample z (:func:`stouffer`), whose null mean is 0 only
     when both sides' sub-sample means are distributed alike (a side whose mean and variance
@@ -490,9 +677,11 @@ def pooled_difference(mean_a, var_a, mean_b, var_b, labels: np.ndarray, kind: st
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
     noisy = noisy_channels(a, va, b, vb, rtol, atol)
     lab = np.asarray(labels)
+    groups = [(g, lab == g) for g in np.unique(lab[lab >= 0])]
+    first = int(lab.max()) + 1 if lab.size and (lab >= 0).any() else 0
+    groups += [(first + k, np.asarray(m, dtype=bool)) for k, m in enumerate(masks or [])]
     out, where = [], []
-    for g in np.unique(lab[lab >= 0]):
-        m = lab == g
+    for g, m in groups:
         for c in range(a.shape[2]):
             k = noisy[..., c] & m
             n = int(k.sum())
@@ -519,9 +708,11 @@ def _pooled_verdict(out: list, where: list, kind: str, alpha: float, names) -> P
     bad = [((names[int(g)] if names is not None else int(g)), "RGB"[c], float(x), int(n))
            for (g, c, n), x in zip(where, out) if abs(x) > crit]
     bad.sort(key=lambda t: -abs(t[2]))
+    every = None if names is None else [(names[int(g)], "RGB"[c], float(x), int(n))
+                                        for (g, c, n), x in zip(where, out)]
     return PooledTest(not bad, kind, len({w[0] for w in where}), tests, level, crit,
                       float(np.abs(zs).max()) if tests else None,
-                      float(zs.std()) if tests > 1 else None, bad[:10])
+                      float(zs.std()) if tests > 1 else None, bad[:10], calibration(zs), every)
 
 
 def tile_labels(shape: tuple[int, int], tile: int = TILE) -> np.ndarray:

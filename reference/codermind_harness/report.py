@@ -41,7 +41,13 @@ def port_record(case: Case, opt: Options, label: str, r: Renders, t: Tests,
                    "noisy_tests": z.noisy_tests,
                    "failing_sub_samples": int((~z.passed_map).sum()),
                    "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
-                   "rtol": th.rtol, "atol": th.atol},
+                   "rtol": th.rtol, "atol": th.atol,
+                   # t-aware scores (metrics.welch_scores): the gross bound and calibration
+                   "gross_alpha": z.gross_alpha, "gross_effect": z.gross_effect,
+                   "z_gross": z.z_gross,
+                   "gross_channels": z.gross, "gross_sub_samples": z.gross_sub_samples,
+                   "max_abs_score": z.max_score, "zero_variance": z.zero_variance,
+                   "calibration": z.calibration},
         "pooled": t.pooled, "ties": r.ties, "flip_limit": flip_limit,
         "flip_mean": t.flip_mean, "flip_noise": t.flip_noise, "z_test_noise": t.noise_z,
         "rel_mse": t.rel_mse,
@@ -51,6 +57,7 @@ def port_record(case: Case, opt: Options, label: str, r: Renders, t: Tests,
             **asdict(etest)},
         "thresholds": {"pass_rate": th.pass_rate, "flip": th.flip,
                        "exposure_alpha": th.exposure_alpha, "pooled_alpha": th.pooled_alpha,
+                       "gross_alpha": th.gross_alpha, "gross_effect": th.gross_effect,
                        "flip_k": th.flip_k, "flip_k0": th.flip_k0,
                        "flip_eps": th.flip_eps},
         "passed": not failures, "failures": failures,
@@ -204,7 +211,7 @@ def _port_table(records: list[dict]) -> str:
     if tested:
         e0 = tested[0]["exposure_test"]
         head = ("scene", "seeds", "mitsuba E", "sd", "port E", "sd", "diff %", "t", "df", "p",
-                "E test")
+                "spread p", "E test")
         rows = []
         for r in tested:
             e = r["exposure_test"]
@@ -212,10 +219,40 @@ def _port_table(records: list[dict]) -> str:
                          f"{e['mean'][0]:.4f}", f"{e['sd'][0]:.4f}", f"{e['mean'][1]:.4f}",
                          f"{e['sd'][1]:.4f}", f"{100 * e['rel_diff']:+.2f}",
                          _num(e["t"], ".2f"), _num(e["df"], ".1f"), _num(e["p"], ".2g"),
-                         "pass" if e["passed"] else "FAIL"))
+                         _num(e.get("p_spread"), ".2g"), "pass" if e["passed"] else "FAIL"))
         text += (f"\n\nexposure test: each side's auto exposure over {len(e0['seeds'])} seeds, "
-                 f"Welch's t-test, alpha {e0['alpha']:g} (two-sided)\n" + _fixed(head, rows))
+                 f"Welch's t-test, alpha {e0['alpha']:g} (two-sided; spread p: one side's E "
+                 f"constant, the other's not, exact, with Welch each at alpha / 2)\n"
+                 + _fixed(head, rows))
+    calib = _calibration_table(records)
+    if calib:
+        text += ("\n\ncalibration: each test's scores (normal under the null: sd 1, p-values "
+                 "uniform); p histogram: counts in 10 bins of the two-sided p-value from 0 to "
+                 "1\n" + calib)
     return text
+
+
+def _calibration_table(records: list[dict]) -> str:
+    """One row per scene and test with scores: the per-sub-sample z-test's t-aware scores,
+    the pooled families' Z, the port against itself."""
+    head = ("scene", "test", "n", "mean", "sd", "robust sd", "max|score|", "gross bound",
+            "p histogram")
+    rows = []
+    for r in records:
+        z = r["z_test"]
+        tests = [("z-test", z.get("calibration"), z.get("max_abs_score"), z.get("z_gross"))]
+        tests += [(f"pooled {k}", v.get("calibration"), v.get("max_abs_z"), None)
+                  for k, v in (r.get("pooled") or {}).items()]
+        noise = r.get("z_test_noise") or {}
+        tests.append(("port vs port", noise.get("calibration"), noise.get("max_abs_score"),
+                      noise.get("z_gross")))
+        for name, c, worst, bound in tests:
+            if not c:
+                continue
+            rows.append((r["label"], name, str(c["n"]), f"{c['mean']:+.3f}",
+                         _num(c["sd"], ".3f"), f"{c['sd_robust']:.3f}", _num(worst, ".3g"),
+                         _num(bound, ".3g"), " ".join(str(x) for x in c["p_hist"])))
+    return _fixed(head, rows) if rows else ""
 
 
 def _pooled(r: dict) -> str:

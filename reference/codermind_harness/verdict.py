@@ -18,6 +18,10 @@ class Thresholds:
     rtol: float = metrics.RTOL
     atol: float = metrics.ATOL
     exposure_alpha: float = metrics.EXPOSURE_ALPHA   #: level of the exposure test
+    #: family-wise level of the gross bound (metrics.GROSS_ALPHA): a sub-sample beyond it
+    #: fails the scene whatever the pass rate
+    gross_alpha: float = metrics.GROSS_ALPHA
+    gross_effect: float = metrics.GROSS_EFFECT   #: per-sample sds of a gross difference
     pooled_alpha: float = metrics.POOLED_ALPHA       #: level of each pooled family
     #: random scenes: FLIP <= floor (1 + k0 + k / sqrt(pixels)) + eps (metrics.flip_limit)
     flip_k: float = metrics.FLIP_K
@@ -48,6 +52,8 @@ def port_failures(t: Tests, random: bool, pixels: int, th: Thresholds) -> tuple[
     failures = []
     if t.z.pass_rate < th.pass_rate:
         failures.append(f"z-test pass rate {t.z.pass_rate:.5f} < {th.pass_rate}")
+    if t.z.gross:
+        failures.append(gross_failure(t.z))
     flip_limit = th.flip if not random else metrics.flip_limit(
         t.flip_noise, pixels, th.flip_k, th.flip_eps, th.flip_k0)
     if t.flip_mean > flip_limit:
@@ -66,9 +72,26 @@ def port_failures(t: Tests, random: bool, pixels: int, th: Thresholds) -> tuple[
     return failures, flip_limit
 
 
+def gross_failure(z: metrics.ZTest) -> str:
+    """A disagreement far beyond noise, which no pass-rate allowance excuses."""
+    worst = "inf" if z.max_score is None and z.noisy_tests == 0 else (
+        f"{z.max_score:.3g}" if z.max_score is not None else "inf")
+    return (f"z-test: {z.gross_sub_samples} sub-samples ({z.gross} channels) differ grossly: "
+            f"score beyond {z.z_gross:.3g} (Sidak at {z.gross_alpha:g} family-wise over "
+            f"{z.tests} tests) and difference beyond {z.gross_effect:g} per-sample sds "
+            f"(largest |score| {worst})")
+
+
 def exposure_failure(e: metrics.ExposureTest) -> str:
-    where = (f"Welch t = {e.t:.2f} (df {e.df:.1f}), p = {e.p:.2g} < {e.alpha}"
-             if e.method == "welch" else "outside the float tolerance (neither side varies)")
+    if e.method == "welch":
+        where = f"Welch t = {e.t:.2f} (df {e.df:.1f}), p = {e.p:.2g} < {e.alpha}"
+    elif e.method == "welch + spread":
+        side = "Mitsuba's" if e.sd[0] <= e.sd[1] else "the port's"
+        where = (f"{side} exposure is the same for every seed while the other's varies "
+                 f"(exact p = {e.p_spread:.2g}), Welch t = {e.t:.2f} (df {e.df:.1f}), "
+                 f"p = {e.p:.2g}; each at {e.alpha / 2:g}")
+    else:
+        where = "outside the float tolerance (neither side varies)"
     return (f"auto exposure: Mitsuba {e.mean[0]:.4f} (sd {e.sd[0]:.4f}) vs port "
             f"{e.mean[1]:.4f} (sd {e.sd[1]:.4f}) over {e.n[0]} seeds each, "
             f"{100 * e.rel_diff:+.2f} %: {where}")

@@ -50,6 +50,17 @@ def test_page4_crop_compare_passes(tmp_path):
     assert z["pass_rate"] >= 0.99 and rec["flip_mean"] <= 0.01
     # the noise is real and the variances right: z spread about 1 over thousands of tests
     assert z["noisy_tests"] > 1000 and 0.9 < z["z_sd"] < 1.1
+    # the calibration: t-aware scores of sd and robust sd about 1, p-values flat, nothing
+    # near the gross rule; the same for the port against itself; a table in compare.txt
+    c = z["calibration"]
+    assert c["n"] == z["noisy_tests"] and sum(c["p_hist"]) == c["n"] and len(c["p_hist"]) == 10
+    assert 0.9 < c["sd"] < 1.1 and 0.9 < c["sd_robust"] < 1.1
+    assert max(c["p_hist"]) < 1.25 * c["p_hist_expected"]
+    assert z["gross_channels"] == 0 and z["max_abs_score"] < z["z_gross"]
+    assert 0.9 < rec["z_test_noise"]["calibration"]["sd_robust"] < 1.1
+    assert rec["pooled"]["tiles"]["calibration"]["n"] == rec["pooled"]["tiles"]["tests"]
+    table = (tmp_path / "compare.txt").read_text()
+    assert "calibration:" in table and "port vs port" in table
     # the pooled tests: the pooled difference over 29 tiles and over the objects the crop sees
     tiles, objects = rec["pooled"]["tiles"], rec["pooled"]["objects"]
     assert tiles["passed"] and objects["passed"] and tiles["groups"] == 29

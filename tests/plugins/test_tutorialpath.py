@@ -154,6 +154,27 @@ def test_strict_is_told_apart_from_path(llvm, tmp_path):
                                 zstat.render_moments(mi, ref, 64, seed=2)).passed
 
 
+@pytest.mark.parametrize("quirks", ["clean", "strict"])
+def test_draw_diffuse_keeps_the_expectation_with_the_originals_noise(llvm, tmp_path, quirks):
+    """``draw_diffuse`` lights a hit only where the roulette picks "diffuse" (at full
+    weight) instead of at every hit times that event's probability: the same expectation
+    per pixel (z-test against the default), more noise (the original's, facts.md F8.3)."""
+    mi = llvm
+    text, folder = converted(tmp_path, SCENES / "page4.xml")
+    text = small_film(text, 96, 72)
+    base = TUTORIALPATH.replace('value="clean"', f'value="{quirks}"')
+    drawn = base.replace("</integrator>", '<boolean name="draw_diffuse" value="true"/>'
+                         "</integrator>")
+    defines = dict(max_depth=11, spp=64, blob0_max_error=0.5, blob_tessellate="true")
+    a = zstat.render_moments(mi, load(mi, swap_integrator(text, moment(drawn)), folder,
+                                      **defines), 64, seed=1)
+    b = zstat.render_moments(mi, load(mi, swap_integrator(text, moment(base)), folder,
+                                      **defines), 64, seed=2)
+    result = zstat.two_sample(a, b)
+    assert result.passed, str(result)
+    assert a[1].sum() > 1.05 * b[1].sum()          # the drawn lighting's extra variance
+
+
 @pytest.mark.parametrize("name", ["default", "garden"])
 def test_clean_has_the_expectation_of_path_with_other_lights(llvm, name):
     """Scenes that are not the tutorial's: an environment light (constant, cube map as a
@@ -304,7 +325,8 @@ def test_min_distance_decides_where_two_spheres_meet(llvm):
 @pytest.mark.parametrize("props,needle", [({"quirks": "exact"}, "'quirks'"),
                                           ({"max_depth": -2}, "'max_depth'"),
                                           ({"min_distance": -0.1}, "'min_distance'"),
-                                          ({"exact_hits": 1}, "'exact_hits'")])
+                                          ({"exact_hits": 1}, "'exact_hits'"),
+                                          ({"draw_diffuse": 1}, "'draw_diffuse'")])
 def test_bad_parameters_give_one_line(llvm, props, needle):
     mi = llvm
     with pytest.raises(Exception) as e:

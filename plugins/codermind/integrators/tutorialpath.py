@@ -90,6 +90,20 @@ class TutorialIntegrator(mi.SamplingIntegrator):
          ``max_depth`` and no Russian roulette. ``strict``: the tutorial programs' quirks
          that Mitsuba's geometry allows (below) (Default: ``clean``)
 
+     * - draw_diffuse
+       - |bool|
+       - How a hit on a :monosp:`tutorial` material is lit. ``false``: at every hit, its
+         lights times the probability of the roulette's "diffuse" event
+         (1 - Rf - Tr), while the path goes on where the draw picks a reflection or a
+         refraction: the expected value of that event, less noise. ``true``: as the
+         tutorial draws it (facts.md F8.3): the lights at full weight only where the same
+         draw picks "diffuse" (the path ends there), nothing elsewhere. Both have the same
+         expected value; only ``true`` has the original's distribution per sample, which a
+         nonlinear statistic of single rays needs: the auto-exposure probes
+         (``codermind.tutorial.render.probe_radiance``; facts.md F6.3). Shapes whose BSDF
+         is not a :monosp:`tutorial` one (optionally in :monosp:`noisebump`) keep
+         ``false`` (Default: ``false``)
+
     A path tracer written for the tutorial's scenes (:monosp:`tutorial` BSDFs, optionally
     inside :monosp:`noisebump`; :monosp:`tutorialpoint` or other delta lights; the
     :monosp:`cubemap` background), faster than :monosp:`path` on them:
@@ -197,6 +211,10 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                              f"{self.min_distance!r}")
         self.min_distance = float(self.min_distance)
         self.quirks = str(props.get("quirks", "clean"))
+        self.draw_diffuse = props.get("draw_diffuse", False)
+        if not isinstance(self.draw_diffuse, bool):
+            raise ValueError(f"tutorialpath: 'draw_diffuse' must be a boolean, got "
+                             f"{self.draw_diffuse!r}")
         if self.quirks not in QUIRKS:
             raise ValueError(f"tutorialpath: 'quirks' must be 'clean' or 'strict', got "
                              f"{self.quirks!r}")
@@ -225,6 +243,14 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     raise ValueError(f"tutorialpath: quirks=strict needs tutorial BSDFs, shape "
                                      f"{shape.id()!r} has {type(bsdf).__name__}")
         return delta, bool(sampled)
+
+    def _draws(self, scene: mi.Scene) -> bool:
+        """Whether the diffuse event is drawn (``draw_diffuse``): every shape's BSDF exposes
+        the tutorial material's per-hit quantities."""
+        if not self.draw_diffuse:
+            return False
+        bsdfs = [shape.bsdf() for shape in scene.shapes()]
+        return all(b is None or b.has_attribute("tutorial_page") for b in bsdfs)
 
     def _exact_shapes(self, scene: mi.Scene) -> list[ExactSurface]:
         """The scene's meshes that can move a hit onto their exact surface
@@ -337,6 +363,7 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                medium: mi.Medium = None, active: mi.Bool = True
                ) -> tuple[mi.Spectrum, mi.Bool, list[mi.Float]]:
         strict = self.quirks == "strict"
+        draws = self._draws(scene)
         # no shape (an empty tutorial scene): every ray misses; the stand-in BSDF is masked off
         empty = len(scene.shapes()) == 0
         direct = self.scalar or empty          # call the BSDF itself, not through a dispatch
@@ -483,6 +510,18 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                 values, bs, weight = dr.dispatch(bsdf, _eval_sample, ctx, si, wos, u, u2,
                                                  active=active_next)
 
+            # draw_diffuse: the lights at full weight where the draw u picked "diffuse" (the
+            # BSDF's continuation ended there: u >= Rf + Tr in front), none elsewhere
+            draw_scale = mi.Float(1.0)
+            if dr.hint(draws, mode="scalar"):
+                if dr.hint(strict, mode="scalar"):
+                    chosen = total
+                else:
+                    chosen = bsdf.eval_attribute_1("tutorial_events", si, active_next)
+                p_diffuse = 1.0 - chosen
+                draw_scale = dr.select((u >= chosen) & (p_diffuse > 0),
+                                       1.0 / dr.select(p_diffuse > 0, p_diffuse, 1.0), 0.0)
+
             # each delta light with its own shadow ray where the BSDF is lit
             for k in range(len(deltas)):
                 ds, em_weight = samples[k]
@@ -492,6 +531,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
                     lambert = bsdf.eval(lambert_ctx, si, wo, active_next & textured)
                     value = (value + dr.select(textured, (beta - 1.0) * lambert, 0.0)) \
                         * lit_scale
+                if dr.hint(draws, mode="scalar"):
+                    value = value * draw_scale
                 lit = active_next & (dr.max(dr.abs(value * em_weight)) > 0)
                 exact_lanes = on_exact if has_exact or has_analytic else None
 
@@ -595,7 +636,8 @@ class TutorialIntegrator(mi.SamplingIntegrator):
 
     def to_string(self) -> str:
         return (f"TutorialIntegrator[\n  max_depth = {self.max_depth},\n  exact_hits = "
-                f"{self.exact_hits},\n  min_distance = {self.min_distance},\n  quirks = {self.quirks}\n]")
+                f"{self.exact_hits},\n  min_distance = {self.min_distance},\n  quirks = {self.quirks},"
+                f"\n  draw_diffuse = {self.draw_diffuse}\n]")
 
 
 mi.register_integrator("tutorialpath", lambda props, cls=TutorialIntegrator: cls(props))

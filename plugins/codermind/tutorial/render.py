@@ -15,7 +15,14 @@ Auto exposure (page 4), ``exposure=``:
 * ``"probes"`` (default, the tutorial's): the 16 x 16 probe rays (facts.md F6.3) from the sensor
   whose id the block names (``probes``: pinhole, no pixel offset, a W x H film, so that
   ``sample2`` = (x / W, 1 - y / H) reaches past the image top as the tutorial's grid does),
-  each traced once with the scene's integrator through ``SamplingIntegrator.sample``;
+  each traced once with the scene's integrator through ``SamplingIntegrator.sample``, a
+  ``tutorialpath`` one with ``draw_diffuse`` on (:func:`probe_integrator`): E is a nonlinear
+  function of single rays (the square root of the mean of L^2), so the probes need the
+  original's distribution per ray (facts.md F6.3: "the ordinary stochastic path code", whose
+  roulette draws the diffuse event, F8.3), not only its expectation, which is what the
+  image's lighting at every hit times the diffuse probability keeps (E from the expected
+  lighting differs by up to tens of percent where probes see partly reflective materials,
+  and does not vary with the seed where no probe path goes on);
 * ``"render"``: from the render's own sub-samples (every film pixel, each the mean of its
   samples): deterministic given the render and less noisy, but not the tutorial's statistic
   (other positions, averaged rays), so E differs slightly;
@@ -104,10 +111,39 @@ def probe_sensor(scene: mi.Scene, settings: ToneSettings) -> mi.Sensor:
     raise CodermindError(f"no sensor with id '{settings.probes}' (the auto-exposure probes)")
 
 
+def probe_integrator(integrator: mi.Integrator) -> mi.Integrator:
+    """The integrator the probes are traced with: a ``tutorialpath`` with the settings of
+    ``integrator`` and ``draw_diffuse`` on (the original's roulette, module doc); any other
+    integrator as it is. One copy per integrator, kept."""
+    if not hasattr(integrator, "draw_diffuse") or integrator.draw_diffuse:
+        return integrator
+    key = id(integrator)
+    cached = _PROBE_INTEGRATORS.get(key)
+    if cached is not None and cached[0] is integrator \
+            and cached[2] == _integrator_settings(integrator):
+        return cached[1]
+    settings = _integrator_settings(integrator)
+    copy = mi.load_dict({"type": "tutorialpath", "max_depth": settings[0],
+                         "exact_hits": settings[1], "min_distance": settings[2],
+                         "quirks": settings[3], "draw_diffuse": True})
+    _PROBE_INTEGRATORS[key] = (integrator, copy, settings)
+    return copy
+
+
+def _integrator_settings(integrator) -> tuple:
+    return (int(integrator.max_depth), bool(integrator.exact_hits),
+            float(integrator.min_distance), str(integrator.quirks))
+
+
+#: id(scene integrator) -> (that integrator, its probe copy, the settings copied)
+_PROBE_INTEGRATORS: dict = {}
+
+
 def probe_radiance(scene: mi.Scene | list[mi.Scene], settings: ToneSettings, seed: int = 0,
                    integrator: mi.Integrator | None = None) -> np.ndarray:
     """(256, 3) radiance of the probe rays, each traced once (a list of scenes: the sum over
-    them, with the same random numbers)."""
+    them, with the same random numbers); ``integrator``: default, the scene's own as
+    :func:`probe_integrator` turns it."""
     if isinstance(scene, list):
         return sum(probe_radiance(s, settings, seed, integrator) for s in scene)
     sensor = probe_sensor(scene, settings)
@@ -119,7 +155,7 @@ def probe_radiance(scene: mi.Scene | list[mi.Scene], settings: ToneSettings, see
                          mi.Float(pos[:, 1].astype(np.float32)))
     ray, weight = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5), sample2,
                                     mi.Point2f(0.0, 0.0))
-    integrator = integrator or scene.integrator()
+    integrator = integrator or probe_integrator(scene.integrator())
     colour, _, _ = integrator.sample(scene, sampler, mi.RayDifferential3f(ray))
     # a Color3f of n lanes converts to a (3, n) array: transpose, do not reshape
     out = np.array(colour * weight, dtype=np.float64)
