@@ -282,9 +282,57 @@ def sampler_xml(text: str, kind: str) -> str:
     return text[:m.start()] + body + text[m.end():]
 
 
+_TUTORIALPATH = re.compile(r'<integrator\s+type="tutorialpath"\s*(/?)>')
+
+
+def drawn_diffuse_xml(text: str) -> str:
+    """``text`` with its ``tutorialpath`` integrator drawing the roulette's "diffuse" event
+    as the tutorial does (``draw_diffuse``, facts.md F8.3: the lights at full weight where
+    the draw picks it, the path ending there), where that integrator has the option
+    (:func:`draws_diffuse`); else ``text`` as it is.
+
+    The port draws that event; ``tutorialpath`` by default lights every hit times its
+    probability 1 - Rf - Tr and goes on: the same expectation, another distribution per
+    sample. A per-sub-sample test with variances estimated from 16 samples then compares
+    a sampled event with a deterministic term: where the diffuse probability is 0.2, 0.8^16
+    = 2.8 % of the port's sub-samples draw no diffuse event at all (variance 0, the lights
+    missing) while Mitsuba's carry 0.2 times them, so |z| is infinite or in the hundreds
+    on correct plugins (glass, partly reflecting metals and Fresnel-reflecting plastics on
+    random scenes; tests/harness/test_random_compare.py); with both sides drawing, both
+    estimate the same distribution, as the ``independent`` sampler makes their samples
+    alike (:func:`iid_sampler_xml`)."""
+    if 'name="draw_diffuse"' in text or not draws_diffuse():
+        return text
+    m = _TUTORIALPATH.search(text)
+    if m is None:
+        return text
+    option = '<boolean name="draw_diffuse" value="true"/>'
+    if m.group(1):          # <integrator type="tutorialpath"/>
+        return (text[:m.start()] + f'<integrator type="tutorialpath">{option}</integrator>'
+                + text[m.end():])
+    return text[:m.end()] + option + text[m.end():]
+
+
+_DRAWS: dict = {}
+
+
+def draws_diffuse() -> bool:
+    """Whether this Mitsuba variant's ``tutorialpath`` has the ``draw_diffuse`` option."""
+    import mitsuba as mi
+    variant = mi.variant()
+    if variant not in _DRAWS:
+        try:
+            _DRAWS[variant] = hasattr(mi.load_dict({"type": "tutorialpath"}), "draw_diffuse")
+        except (RuntimeError, ValueError, TypeError):
+            _DRAWS[variant] = False
+    return _DRAWS[variant]
+
+
 def load_mitsuba(xml: Path, grid: Grid, defines: dict, iid: bool = False):
     """The scene of ``xml`` with the first sensor's film cropped to the grid's rectangle;
-    with ``iid``, its sampler replaced by ``independent`` (:func:`iid_sampler_xml`)."""
+    with ``iid`` (a random scene), its sampler replaced by ``independent``
+    (:func:`iid_sampler_xml`) and its ``tutorialpath`` drawing the diffuse event
+    (:func:`drawn_diffuse_xml`)."""
     from codermind.errors import CodermindError
     from codermind.scene import load_scene
     from codermind.tutorial.render import read_settings
@@ -303,7 +351,7 @@ def load_mitsuba(xml: Path, grid: Grid, defines: dict, iid: bool = False):
         if not full:
             text = crop_xml(text, *grid.crop())
         if iid:
-            text = iid_sampler_xml(text)
+            text = drawn_diffuse_xml(iid_sampler_xml(text))
         return _load_text(text, xml, defines), settings
     except CodermindError as e:
         raise HarnessError(str(e)) from None
@@ -329,13 +377,23 @@ def _load_text(text: str, xml: Path, defines: dict):
     return scene
 
 
+def displayed(encoded: np.ndarray) -> np.ndarray:
+    """The displayed value in [0, 1] of an encoded image before 8 bits, as the byte
+    conversion shows it (``codermind_ref.tonemap.to_bytes``, x86): NaN is black (byte 0),
+    above 1 white, below 0 black. Page 4's tone curve gives NaN where a sub-sample's radiance
+    is negative (the unclamped turbulence mix, facts.md F7.2) and Power is not an integer
+    (c^P); both sides compute it, FLIP refuses NaN."""
+    return np.clip(np.nan_to_num(np.asarray(encoded, dtype=np.float64), nan=0.0, posinf=1.0,
+                                 neginf=0.0), 0.0, 1.0)
+
+
 def encode_mitsuba(linear: np.ndarray, settings, exposure: float | None) -> np.ndarray:
     """The displayed image before 8 bits, by the plugins' pipeline (codermind.tutorial.image)."""
     from codermind.tutorial.image import average_blocks, srgb_encode, tone_curve
     if settings.page == 1:
-        return np.clip(linear, 0.0, 1.0)
+        return displayed(linear)
     e = 1.0 if exposure is None else float(exposure)
-    return np.clip(srgb_encode(average_blocks(tone_curve(e * linear, settings))), 0.0, 1.0)
+    return displayed(srgb_encode(average_blocks(tone_curve(e * linear, settings))))
 
 
 def render_mitsuba(xml: Path, grid: Grid, spp: int, seed: int, exposure: float | None,
@@ -433,7 +491,7 @@ def render_port(scene, grid: Grid, spp: int, seed: int, exposure: float | None,
                                "per sub-sample of a random scene: use --spp >= 2")
         var = np.zeros_like(var)
     return SideImage(f"port ({result.mode})", result.linear.astype(np.float64), var,
-                     np.clip(result.encoded.astype(np.float64), 0.0, 1.0), result.complexity,
+                     displayed(result.encoded), result.complexity,
                      seconds, dof=result.complexity - 1 if result.complexity > 1 else None)
 
 
