@@ -25,6 +25,7 @@ by construction on both (the port reports NaN for one ray on page 4, which is th
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import time
@@ -735,8 +736,6 @@ def pooled_inflation(film, stride: int = 1) -> float:
     ``stride`` where the grid takes every stride-th pixel). A group's edge pixels
     have fewer correlated partners inside it, so the factor overstates the variance of a
     small group's sum (conservative)."""
-    import math
-
     import drjit as dr
     import mitsuba as mi
     rf = film.rfilter()

@@ -45,11 +45,13 @@ SOURCES = _sources()
 def folder(tmp_path_factory) -> Path:
     """A folder with the cube-map faces of page 4 and of the bundled scenes (linked), where
     mutated scenes are written."""
-    tmp = tmp_path_factory.mktemp("fuzz")
+    tmp = tmp_path_factory.mktemp("fuzz") / "scenes"
+    tmp.mkdir()
     faces = TUTORIAL / "page4"
     for face in faces.glob("*.tga"):
         (tmp / face.name).symlink_to(face)
     (tmp / "sky").symlink_to(ROOT / "scenes" / "sky")
+    (tmp.parent / "sky").symlink_to(ROOT / "scenes" / "sky")     # scenes/user/: ../sky
     return tmp
 
 
