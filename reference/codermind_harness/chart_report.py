@@ -41,28 +41,26 @@ def _csv(rows: list[dict], columns) -> bytes:
 
 
 def _png(fig) -> bytes:
-    import matplotlib.pyplot as plt
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
     return buf.getvalue()
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+def _figure(panels: int, figsize: tuple[float, float]):
+    """A figure and its row of axes, made without pyplot: its global backend and current
+    figure stay the caller's (a notebook keeps showing its own plots)."""
+    from matplotlib.figure import Figure      # heavy
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(1, panels)
 
 
 def scene_figure(result: dict, load: str) -> bytes:
-    plt = _plt()
     pts: list[Point] = result["points"]
     scalar = [p for p in pts if p.panel == "scalar"]
     panels = [("rel_mse", "relative MSE (linear)", "main"), ("flip", "mean FLIP", "main")]
     if scalar:
         panels.append(("rel_mse", "relative MSE (linear), scalar crop", "scalar"))
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.4))
+    fig, axes = _figure(len(panels), (5.2 * len(panels), 4.4))
     for ax, (metric, label, panel) in zip(np.atleast_1d(axes), panels):
         sub = [p for p in pts if p.panel == panel]
         positive = [getattr(p, metric) for p in sub if getattr(p, metric) > 0]
@@ -103,9 +101,8 @@ def scene_figure(result: dict, load: str) -> bytes:
 
 
 def cost_figure(rows: list[dict], slopes: dict, load: str) -> bytes:
-    plt = _plt()
     exps = list(dict.fromkeys(r["experiment"] for r in rows))
-    fig, axes = plt.subplots(1, len(exps), figsize=(4.6 * len(exps), 4.2))
+    fig, axes = _figure(len(exps), (4.6 * len(exps), 4.2))
     for ax, exp in zip(np.atleast_1d(axes), exps):
         sub = [r for r in rows if r["experiment"] == exp]
         for method in dict.fromkeys(r["method"] for r in sub):

@@ -91,23 +91,24 @@ def write_heatmap(path: Path, mits: np.ndarray, port: np.ndarray, rows: slice,
     """One PNG: both images, the FLIP map and the |z| map (failing sub-samples in red);
     ``left_label``: the first image's title."""
     import matplotlib           # heavy
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from codermind.imageio import atomic_path
-    with _PYPLOT:       # pyplot is not thread-safe (scenes compared in threads on a cluster)
-        _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z,
+    with _DRAWING:      # scenes compared in threads on a cluster share matplotlib's caches
+        _heatmap(matplotlib, atomic_path, path, mits, port, rows, flip_map, z,
                  port_label, title, zlabel, left_label)
 
 
-_PYPLOT = threading.Lock()
+_DRAWING = threading.Lock()
 
 
-def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, port_label,
+def _heatmap(matplotlib, atomic_path, path, mits, port, rows, flip_map, z, port_label,
              title, zlabel="|z| per sub-sample", left_label="Mitsuba") -> None:
     h, w = mits.shape[:2]
     panel = min(max(w / 100, 2.5), 5.0)          # inches: small grids enlarged, large shrunk
-    fig, axes = plt.subplots(2, 2, figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2),
-                             dpi=100, constrained_layout=True)
+    # a Figure without pyplot: the caller's backend and current figure stay (notebooks)
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(2 * panel + 1.5, 2 * panel * h / w + 1.2), dpi=100,
+                 constrained_layout=True)
+    axes = fig.subplots(2, 2)
     axes[0, 0].imshow(mits, interpolation="nearest")
     axes[0, 0].set_title(left_label, fontsize=9)
     axes[0, 1].imshow(port, interpolation="nearest")
@@ -133,7 +134,6 @@ def _heatmap(plt, matplotlib, atomic_path, path, mits, port, rows, flip_map, z, 
     fig.suptitle(title, fontsize=10)
     with atomic_path(path, ".png") as tmp:
         fig.savefig(tmp, format="png")
-    plt.close(fig)
 
 
 def format_table(records: list[dict]) -> str:

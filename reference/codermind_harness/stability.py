@@ -222,12 +222,11 @@ def to_json(results: list[SweepResult]) -> str:
 
 def plot(result: SweepResult, path: Path) -> None:
     """The sweep's figure: its curves (and image, if any), written atomically as PNG."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure      # without pyplot: the caller's backend stays
 
     panels = 2 if result.image is not None else 1
-    fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 3.6), dpi=80, squeeze=False)
+    fig = Figure(figsize=(5.2 * panels, 3.6), dpi=80)
+    axes = fig.subplots(1, panels, squeeze=False)
     ax = axes[0, 0]
     for s in result.series:
         x, y = np.asarray(s.x, float), np.asarray(s.y, float)
@@ -265,7 +264,6 @@ def plot(result: SweepResult, path: Path) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     with np.errstate(over="ignore"):       # log axes reaching 1e308
         fig.savefig(tmp, format="png")
-    plt.close(fig)
     tmp.replace(path)
 
 
