@@ -561,22 +561,7 @@ def geometry_groups(xml: Path, grid: Grid, defines: dict | None = None, lights: 
         defines["blob_tessellate"] = "true"
         defines.update({n: str(LABEL_BLOB_ERROR) for n in found if n.endswith("_max_error")})
     scene, _ = load_mitsuba(xml, grid, defines)
-    sensor = scene.sensors()[0]
-    cw, ch = (int(v) for v in sensor.film().crop_size())
-    j, i = np.meshgrid(np.arange(ch), np.arange(cw), indexing="ij")
-    u = ((i.ravel() + 0.5) / cw).astype(np.float32)
-    v = ((j.ravel() + 0.5) / ch).astype(np.float32)
-    ray, _ = sensor.sample_ray(mi.Float(0.0), mi.Float(0.5),
-                               mi.Point2f(mi.Float(u), mi.Float(v)), mi.Point2f(0.5, 0.5))
-    si = scene.ray_intersect(ray)
-    hit = np.array(si.is_valid(), dtype=bool)
-    ptr = np.array(dr.reinterpret_array(mi.UInt32, si.shape), dtype=np.int64)
-    shapes = scene.shapes()
-    ids = np.array(dr.reinterpret_array(mi.UInt32, scene.shapes_dr()), dtype=np.int64)
-    order = np.argsort(ids)
-    pos = np.clip(np.searchsorted(ids[order], ptr), 0, ids.size - 1)
-    lab = np.where(hit & (ids[order][pos] == ptr), order[pos], -1).astype(np.int64)
-    names = [f"{k} {s.id() or _kind(s)}" for k, s in enumerate(shapes)]
+    ray, si, lab, names, (cw, ch) = _centre_hits(scene)
     lit, light_names = [], []
     if lights:
         valid = si.is_valid()
@@ -704,6 +689,14 @@ def hit_labels(scene, grid: Grid) -> tuple[np.ndarray, list[str]]:
     """:func:`object_labels` of a loaded scene (an ordinary one) whose first sensor's film is
     cropped to the grid's rectangle: which shape each grid pixel's centre ray meets first
     (-1: nothing), and the shapes' names."""
+    _, _, lab, names, (cw, ch) = _centre_hits(scene)
+    return grid.take(lab.reshape(ch, cw)), names
+
+
+def _centre_hits(scene):
+    """The rays through the centres of the first sensor's (cropped) film pixels, their first
+    intersections, the index of the shape each meets (-1: nothing), the shapes' names and
+    the crop's size."""
     import drjit as dr
     import mitsuba as mi
     sensor = scene.sensors()[0]
@@ -722,7 +715,7 @@ def hit_labels(scene, grid: Grid) -> tuple[np.ndarray, list[str]]:
     pos = np.clip(np.searchsorted(ids[order], ptr), 0, ids.size - 1)
     lab = np.where(hit & (ids[order][pos] == ptr), order[pos], -1).astype(np.int64)
     names = [f"{k} {s.id() or _kind(s)}" for k, s in enumerate(shapes)]
-    return grid.take(lab.reshape(ch, cw)), names
+    return ray, si, lab, names, (cw, ch)
 
 
 def pooled_inflation(film, stride: int = 1) -> float:

@@ -62,14 +62,21 @@ def port_failures(t: Tests, random: bool, pixels: int, th: Thresholds) -> tuple[
             f"+ {th.flip_k:g} / sqrt({pixels} pixels)) + {th.flip_eps:g})"))
     if t.exposure is not None and not t.exposure.passed:
         failures.append(exposure_failure(t.exposure))
-    for kind, p in (t.pooled or {}).items():
+    failures += pooled_failures(t.pooled or {}, "sub-samples")
+    return failures, flip_limit
+
+
+def pooled_failures(pooled: dict, unit: str) -> list[str]:
+    """One sentence per pooled family that failed (its worst group), ``unit`` what it pools."""
+    failures = []
+    for kind, p in pooled.items():
         if not p["passed"]:
             g, c, zz, n = p["failing"][0]
             failures.append(f"pooled z over {kind}: {len(p['failing'])}"
                             f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
                             f"{p['z_critical']:.3g} (worst: {g} {c}, Z {zz:.3g} over "
-                            f"{n} sub-samples)")
-    return failures, flip_limit
+                            f"{n} {unit})")
+    return failures
 
 
 def gross_failure(z: metrics.ZTest) -> str:
@@ -177,11 +184,5 @@ def scene_failures(t: SceneTests, pixels: int, th: Thresholds) -> tuple[list[str
         failures.append(f"mean FLIP {t.flip_mean:.5f} > {flip_limit:.5f} (its noise floor "
                         f"{t.flip_noise:.5f} x (1 + {th.flip_k0:g} + {th.flip_k:g} / "
                         f"sqrt({pixels} pixels)) + {th.flip_eps:g})")
-    for kind, p in t.pooled.items():
-        if not p["passed"]:
-            g, c, zz, n = p["failing"][0]
-            failures.append(f"pooled z over {kind}: {len(p['failing'])}"
-                            f"{'+' if len(p['failing']) == 10 else ''} of {p['tests']} beyond "
-                            f"{p['z_critical']:.3g} (worst: {g} {c}, Z {zz:.3g} over "
-                            f"{n} pixels)")
+    failures += pooled_failures(t.pooled, "pixels")
     return failures, flip_limit
