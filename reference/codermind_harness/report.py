@@ -21,6 +21,16 @@ from .verdict import Tests
 # importing them costs seconds that parsing options and checking scenes do not need.
 
 
+def z_record(z: metrics.ZTest, th, unit: str) -> dict:
+    """compare.json's record of a per-``unit`` z-test (``sub_samples`` or ``pixels``)."""
+    return {"pass_rate": z.pass_rate, "channel_pass_rate": z.channel_pass_rate,
+            "tests": z.tests, "alpha": th.alpha, "alpha_sidak": z.alpha,
+            "z_critical": z.z_critical, f"noiseless_{unit}": z.noiseless,
+            "noisy_tests": z.noisy_tests, f"failing_{unit}": int((~z.passed_map).sum()),
+            "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
+            "rtol": th.rtol, "atol": th.atol}
+
+
 def port_record(case: Case, opt: Options, label: str, r: Renders, t: Tests,
                 failures: list[str], flip_limit: float, heatmap: Path) -> dict:
     """One scene's JSON record against the port."""
@@ -35,13 +45,7 @@ def port_record(case: Case, opt: Options, label: str, r: Renders, t: Tests,
         "random": case.random, "exposure": r.exposure, "port_mode": opt.port_mode,
         "quirks": opt.quirks,
         "defines": r.defines,
-        "z_test": {"pass_rate": z.pass_rate, "channel_pass_rate": z.channel_pass_rate,
-                   "tests": z.tests, "alpha": th.alpha, "alpha_sidak": z.alpha,
-                   "z_critical": z.z_critical, "noiseless_sub_samples": z.noiseless,
-                   "noisy_tests": z.noisy_tests,
-                   "failing_sub_samples": int((~z.passed_map).sum()),
-                   "max_abs_z": z.max_z, "z_mean": z.z_mean, "z_sd": z.z_sd,
-                   "rtol": th.rtol, "atol": th.atol,
+        "z_test": {**z_record(z, th, "sub_samples"),
                    # t-aware scores (metrics.welch_scores): the gross bound and calibration
                    "gross_alpha": z.gross_alpha, "gross_effect": z.gross_effect,
                    "z_gross": z.z_gross,
