@@ -369,7 +369,9 @@ def _load_text(text: str, xml: Path, defines: dict):
     saved = [resolver[i] for i in range(len(resolver))]
     resolver.prepend(str(xml.resolve().parent))   # as load_file does for its own folder
     try:
-        scene = mi.load_string(text, **defines)
+        # one thread: twice in CI a parallel load of a converted scene here failed inside
+        # Mitsuba (basic_string::_M_create while instantiating a built-in plugin)
+        scene = mi.load_string(text, parallel=False, **defines)
     finally:
         resolver.clear()
         for folder in saved:
